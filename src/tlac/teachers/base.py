@@ -1,0 +1,157 @@
+"""The teacher protocol: anything that maps a batch of observations to a batch of actions.
+
+A teacher is never trained and never pickled into a checkpoint (paper, section 3.1: teachers
+are fixed). Three kinds of objects are accepted by :func:`as_teacher`:
+
+* an object with a batched ``predict(obs_batch) -> action_batch`` (a :class:`Teacher`);
+* a stable-baselines3 model, whose ``predict`` returns ``(actions, state)``;
+* a plain function from ONE observation to ONE action (a person's controller).
+
+>>> import numpy as np, gymnasium as gym
+>>> t = as_teacher(lambda obs: 1, gym.spaces.Discrete(3), name="always-one")
+>>> t.predict(np.zeros((2, 4))).tolist()
+[1, 1]
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, Protocol, runtime_checkable
+
+import gymnasium as gym
+import numpy as np
+
+from tlac.errors import TeacherError
+
+
+@runtime_checkable
+class Teacher(Protocol):
+    """A fixed policy giving action advice. ``predict`` is batched over environments."""
+
+    name: str
+
+    def predict(self, obs: np.ndarray) -> np.ndarray:
+        """Map observations of shape ``(n, *obs_shape)`` to actions: ``(n,)`` integers for a
+        Discrete space, ``(n, action_dim)`` floats for a Box space."""
+        ...
+
+
+class FunctionTeacher:
+    """Wraps a function from one observation to one action into a batched teacher."""
+
+    def __init__(self, fn: Callable[[np.ndarray], Any], action_space: gym.Space, name: str):
+        self.fn, self.action_space, self.name = fn, action_space, name
+
+    def predict(self, obs: np.ndarray) -> np.ndarray:
+        actions = [self.fn(o) for o in obs]
+        dtype = np.int64 if isinstance(self.action_space, gym.spaces.Discrete) else np.float32
+        return np.asarray(actions, dtype=dtype)
+
+
+class SB3Teacher:
+    """A stable-baselines3 model used as a teacher (deterministic actions by default)."""
+
+    def __init__(self, model: Any, name: str, deterministic: bool = True):
+        self.model, self.name, self.deterministic = model, name, deterministic
+
+    def predict(self, obs: np.ndarray) -> np.ndarray:
+        actions, _ = self.model.predict(obs, deterministic=self.deterministic)
+        return np.asarray(actions)
+
+
+class NamedTeacher:
+    """Gives an existing batched teacher a (new) name without changing its behaviour."""
+
+    def __init__(self, teacher: Any, name: str):
+        self.teacher, self.name = teacher, name
+
+    def predict(self, obs: np.ndarray) -> np.ndarray:
+        return np.asarray(self.teacher.predict(obs))
+
+
+def _is_sb3_model(obj: Any) -> bool:
+    try:
+        from stable_baselines3.common.base_class import BaseAlgorithm
+    except ImportError:  # pragma: no cover - sb3 is a dependency
+        return False
+    return isinstance(obj, BaseAlgorithm)
+
+
+def as_teacher(obj: Any, action_space: gym.Space, name: str | None = None) -> Teacher:
+    """Turn ``obj`` into a :class:`Teacher` (see the module docstring for what is accepted)."""
+    if _is_sb3_model(obj):
+        return SB3Teacher(obj, name or type(obj).__name__.lower())
+    if hasattr(obj, "predict") and callable(obj.predict):
+        if name is not None and getattr(obj, "name", None) != name:
+            return NamedTeacher(obj, name)
+        if not isinstance(getattr(obj, "name", None), str):
+            return NamedTeacher(obj, type(obj).__name__.lower())
+        return obj
+    if callable(obj):
+        return FunctionTeacher(obj, action_space, name or getattr(obj, "__name__", "function"))
+    raise TeacherError(
+        f"cannot use {obj!r} as a teacher; expected an object with predict(obs_batch), "
+        "a stable-baselines3 model, or a function from one observation to one action"
+    )
+
+
+def unique_names(names: list[str]) -> list[str]:
+    """Make teacher names unique for logs: ``[random, random] -> [random_1, random_2]``."""
+    counts = {n: names.count(n) for n in names}
+    seen: dict[str, int] = {}
+    out = []
+    for n in names:
+        if counts[n] == 1:
+            out.append(n)
+        else:
+            seen[n] = seen.get(n, 0) + 1
+            out.append(f"{n}_{seen[n]}")
+    return out
+
+
+def check_actions(teacher_name: str, actions: Any, action_space: gym.Space, n: int) -> np.ndarray:
+    """Validate a batch of teacher actions; raise :class:`TeacherError` naming the teacher and
+    the offending value. Nothing is clipped silently."""
+    arr = np.asarray(actions)
+    if isinstance(action_space, gym.spaces.Discrete):
+        if arr.shape != (n,):
+            raise TeacherError(
+                f"teacher {teacher_name!r} returned actions of shape {arr.shape}; "
+                f"expected ({n},) integers for {action_space}"
+            )
+        if not np.issubdtype(arr.dtype, np.integer):
+            if np.issubdtype(arr.dtype, np.floating) and np.isnan(arr).any():
+                raise TeacherError(f"teacher {teacher_name!r} returned NaN action {arr.tolist()}")
+            if not np.all(np.equal(np.mod(arr, 1), 0)):
+                raise TeacherError(
+                    f"teacher {teacher_name!r} returned non-integer action {arr.tolist()} "
+                    f"for {action_space}"
+                )
+            arr = arr.astype(np.int64)
+        low, high = action_space.start, action_space.start + action_space.n - 1
+        bad = (arr < low) | (arr > high)
+        if bad.any():
+            raise TeacherError(
+                f"teacher {teacher_name!r} returned action {arr[bad][0]} outside "
+                f"{action_space} (expected an integer in [{low}, {high}])"
+            )
+        return arr.astype(np.int64)
+    if isinstance(action_space, gym.spaces.Box):
+        expected = (n, *action_space.shape)
+        if arr.shape != expected:
+            raise TeacherError(
+                f"teacher {teacher_name!r} returned actions of shape {arr.shape}; expected {expected}"
+            )
+        arr = arr.astype(np.float32)
+        if np.isnan(arr).any():
+            raise TeacherError(f"teacher {teacher_name!r} returned NaN in action {arr.tolist()}")
+        tol = 1e-6
+        bad = (arr < action_space.low - tol) | (arr > action_space.high + tol)
+        if bad.any():
+            row = int(np.argwhere(bad)[0][0])
+            raise TeacherError(
+                f"teacher {teacher_name!r} returned action {arr[row].tolist()} outside the "
+                f"action box [{action_space.low.tolist()}, {action_space.high.tolist()}]"
+            )
+        return arr
+    raise TeacherError(f"unsupported action space {action_space} for teacher {teacher_name!r}")
