@@ -1,0 +1,36 @@
+"""Algorithm registry: ``tlac train --algo NAME`` and experiment configs resolve names here.
+
+Every class follows the contract in ``docs/architecture.md``:
+``Algo(env, teachers, seed, recorder, **hyperparameters)`` with ``learn``, ``predict``,
+``save`` and ``load``. Modules are imported lazily.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+from tlac.errors import UnknownNameError
+
+ALGORITHMS: dict[str, str] = {
+    "tlac": "tlac.algorithms.two_level:TLAC",
+    "ppo": "tlac.algorithms.sb3_baselines:PPOBaseline",
+    "a2c": "tlac.algorithms.sb3_baselines:A2CBaseline",
+    "dqn-tlql": "tlac.algorithms.dqn_tlql:DQNTLQL",
+    "ac-teach": "tlac.algorithms.ac_teach:ACTeach",
+}
+
+# algorithms that take no teachers (the no-advice baselines)
+NO_ADVICE = frozenset({"ppo", "a2c"})
+
+
+def algorithm_names() -> list[str]:
+    return list(ALGORITHMS)
+
+
+def get_algorithm(name: str) -> Any:
+    """The algorithm class registered under ``name``."""
+    if name not in ALGORITHMS:
+        raise UnknownNameError("algorithm", name, algorithm_names())
+    module_name, attr = ALGORITHMS[name].split(":")
+    return getattr(importlib.import_module(module_name), attr)

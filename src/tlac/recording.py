@@ -1,0 +1,191 @@
+"""Run-folder writers shared by every algorithm (file formats: ``docs/architecture.md``).
+
+* :class:`EpisodeRecorder` wraps a stable-baselines3 ``VecEnv`` and writes one row per finished
+  training episode to ``episodes.csv`` (``timestep,return,length``); it also fills
+  ``info["episode"]`` like SB3's ``Monitor`` so SB3 baselines log their own returns.
+* :class:`Recorder` accumulates the high level's selections per region and writes
+  ``teacher_usage.csv`` once per logging window, and training scalars to ``progress.csv``
+  (long format ``timestep,key,value``) and optionally TensorBoard.
+"""
+
+from __future__ import annotations
+
+import csv
+import time
+from collections import deque
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
+
+
+class EpisodeRecorder(VecEnvWrapper):
+    """Counts environment steps over all sub-environments and records finished episodes."""
+
+    def __init__(self, venv: VecEnv, path: str | Path | None = None, window: int = 20):
+        super().__init__(venv)
+        self.num_timesteps = 0
+        self.episode_returns: deque[float] = deque(maxlen=window)
+        self.episodes_done = 0
+        self._returns = np.zeros(self.num_envs)
+        self._lengths = np.zeros(self.num_envs, dtype=np.int64)
+        self._file = None
+        self._writer: Any = None
+        if path is not None:
+            new = not Path(path).exists()
+            self._file = open(path, "a", newline="")  # noqa: SIM115 - closed in close()
+            self._writer = csv.writer(self._file)
+            if new:
+                self._writer.writerow(["timestep", "return", "length"])
+
+    def reset(self) -> Any:
+        self._returns[:] = 0
+        self._lengths[:] = 0
+        return self.venv.reset()
+
+    def step_wait(self) -> Any:
+        obs, rewards, dones, infos = self.venv.step_wait()
+        self.num_timesteps += self.num_envs
+        self._returns += rewards
+        self._lengths += 1
+        for i in np.flatnonzero(dones):
+            ret, length = float(self._returns[i]), int(self._lengths[i])
+            self.episode_returns.append(ret)
+            self.episodes_done += 1
+            infos[i] = dict(infos[i])
+            infos[i]["episode"] = {"r": ret, "l": length, "t": time.time()}
+            if self._writer is not None:
+                # the step at which this episode ended, counted over all environments
+                self._writer.writerow([self.num_timesteps - self.num_envs + i + 1, ret, length])
+            self._returns[i] = 0.0
+            self._lengths[i] = 0
+        if self._file is not None and dones.any():
+            self._file.flush()
+        return obs, rewards, dones, infos
+
+    def mean_recent_return(self) -> float:
+        return float(np.mean(self.episode_returns)) if self.episode_returns else float("nan")
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+        self.venv.close()
+
+
+def find_episode_recorder(env: Any) -> EpisodeRecorder | None:
+    """The :class:`EpisodeRecorder` inside a stack of VecEnv wrappers, if any."""
+    while env is not None:
+        if isinstance(env, EpisodeRecorder):
+            return env
+        env = getattr(env, "venv", None)
+    return None
+
+
+class Recorder:
+    """Teacher-usage statistics per region, and training scalars, for one run folder.
+
+    ``choice_names`` lists the high level's options: the teachers in order, then ``agent``
+    (index ``len(teachers)``, the paper's E = E_0 U {Agent}, section 3.2).
+    """
+
+    def __init__(
+        self,
+        out_dir: str | Path | None,
+        choice_names: list[str],
+        region_names: tuple[str, ...] = ("all",),
+        region_of: Callable[[np.ndarray], np.ndarray] | None = None,
+        log_interval: int = 2000,
+        tensorboard: bool = False,
+    ):
+        self.out_dir = Path(out_dir) if out_dir is not None else None
+        self.choice_names = list(choice_names)
+        self.region_names = tuple(region_names)
+        self.region_of = region_of
+        self.log_interval = int(log_interval)
+        self._counts = np.zeros((len(self.region_names), len(self.choice_names)), dtype=np.int64)
+        self._next_flush = self.log_interval
+        self.last_usage: dict[str, float] = {}
+        self.last_metrics: dict[str, float] = {}
+        self._tb: Any = None
+        self._usage_file = self._progress_file = None
+        if self.out_dir is not None:
+            self.out_dir.mkdir(parents=True, exist_ok=True)
+            self._usage_file, self._usage = self._open("teacher_usage.csv", ["timestep", "region", "choice", "count", "fraction"])
+            self._progress_file, self._progress = self._open("progress.csv", ["timestep", "key", "value"])
+            if tensorboard:
+                from torch.utils.tensorboard import SummaryWriter
+
+                self._tb = SummaryWriter(str(self.out_dir / "tb"))
+
+    def _open(self, name: str, header: list[str]) -> tuple[Any, Any]:
+        assert self.out_dir is not None
+        path = self.out_dir / name
+        new = not path.exists()
+        f = open(path, "a", newline="")  # noqa: SIM115 - closed in close()
+        w = csv.writer(f)
+        if new:
+            w.writerow(header)
+        return f, w
+
+    def record_selections(self, timestep: int, choices: np.ndarray, obs: np.ndarray) -> None:
+        """Count the high level's choices (ints into ``choice_names``) made in states ``obs``
+        (first axis aligned with ``choices``); flushes a window when ``timestep`` passes it."""
+        choices = np.asarray(choices).reshape(-1)
+        if self.region_of is not None and len(self.region_names) > 1:
+            flat_obs = np.asarray(obs).reshape(len(choices), -1) if np.ndim(obs) > 1 else obs
+            regions = np.asarray(self.region_of(flat_obs), dtype=np.int64).reshape(-1)
+        else:
+            regions = np.zeros(len(choices), dtype=np.int64)
+        np.add.at(self._counts, (regions, choices), 1)
+        if timestep >= self._next_flush:
+            self.flush(timestep)
+
+    def flush(self, timestep: int) -> None:
+        """Write the current window's usage rows (overall and per region) and start a new one."""
+        if self._counts.sum() == 0:
+            self._next_flush = (timestep // self.log_interval + 1) * self.log_interval
+            return
+        rows = [("all", self._counts.sum(axis=0))]
+        if len(self.region_names) > 1:
+            rows += list(zip(self.region_names, self._counts, strict=True))
+        for region, counts in rows:
+            total = counts.sum()
+            if total == 0:
+                continue
+            for name, c in zip(self.choice_names, counts, strict=True):
+                frac = float(c) / float(total)
+                if region == "all":
+                    self.last_usage[name] = frac
+                if self._usage_file is not None:
+                    self._usage.writerow([timestep, region, name, int(c), f"{frac:.6g}"])
+                if self._tb is not None:
+                    self._tb.add_scalar(f"teacher/{region}/{name}", frac, timestep)
+        if self._usage_file is not None:
+            self._usage_file.flush()
+        self._counts[:] = 0
+        self._next_flush = (timestep // self.log_interval + 1) * self.log_interval
+
+    def record_metrics(self, timestep: int, metrics: dict[str, float]) -> None:
+        """Write scalars under the fixed namespaces (``train/``, ``rollout/``, ``time/``)."""
+        self.last_metrics.update(metrics)
+        for key, value in metrics.items():
+            if self._progress_file is not None:
+                self._progress.writerow([timestep, key, f"{float(value):.8g}"])
+            if self._tb is not None:
+                self._tb.add_scalar(key, float(value), timestep)
+        if self._progress_file is not None:
+            self._progress_file.flush()
+
+    def close(self, timestep: int | None = None) -> None:
+        if timestep is not None:
+            self.flush(timestep)
+        for f in (self._usage_file, self._progress_file):
+            if f is not None:
+                f.close()
+        self._usage_file = self._progress_file = None
+        if self._tb is not None:
+            self._tb.close()
+            self._tb = None

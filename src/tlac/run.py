@@ -1,0 +1,226 @@
+"""One training run -> one run folder. Used by ``tlac train`` and by the experiment runners.
+
+The folder layout is documented in ``docs/architecture.md``. A run counts as finished only
+once ``result.json`` exists; it is written last, atomically (temporary file + rename).
+
+>>> spec = RunSpec(env="doorkey", teachers=["optimal", "random"], steps=2000)
+>>> spec.resolved_preset()
+'doorkey'
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import shutil
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+import yaml
+from stable_baselines3.common.vec_env import DummyVecEnv
+
+from tlac.algorithms import NO_ADVICE, get_algorithm
+from tlac.envs import Domain, get_domain, make_teachers
+from tlac.errors import ConfigError, UnknownNameError
+from tlac.evaluation import evaluate_student
+from tlac.presets import load_preset
+from tlac.recording import EpisodeRecorder, Recorder
+
+SELECTORS = ("learned", "random", "ucb1")
+RESULT_FILE = "result.json"
+RUN_FILES = ("episodes.csv", "teacher_usage.csv", "progress.csv", "eval.csv", "tb", "checkpoint.pt",
+             "checkpoint.zip", "model.pt", "model.zip", "config.yaml", RESULT_FILE)
+
+
+@dataclass
+class RunSpec:
+    """Everything that defines one run. Written, resolved, to ``config.yaml``."""
+
+    env: str = "doorkey"
+    """Domain name (``tlac envs`` lists them)."""
+    algo: str = "tlac"
+    """Algorithm: tlac, ppo, a2c, dqn-tlql, ac-teach."""
+    teachers: list[str] | None = None
+    """Teacher names of the domain; ``None`` = the domain's default set; ignored by ppo/a2c."""
+    seed: int = 0
+    steps: int = 50_000
+    """Total environment steps (over all parallel environments)."""
+    selector: str = "learned"
+    """TL-AC's high level: learned (the paper), random, or ucb1 (per episode; Figure 11)."""
+    preset: str | None = None
+    """Hyperparameter preset file; ``None`` = the domain's preset for this algorithm."""
+    overrides: dict[str, Any] = field(default_factory=dict)
+    """Hyperparameters that replace the preset's."""
+    eval_every: int | None = None
+    """Evaluate the student alone every this many steps (``None``: only at the end)."""
+    eval_episodes: int = 10
+    """Episodes per evaluation of the student alone (0 disables evaluation)."""
+    log_interval: int = 2000
+    """Steps per teacher-usage / progress logging window."""
+    tensorboard: bool = False
+
+    def resolved_teachers(self, domain: Domain) -> list[str]:
+        if self.algo in NO_ADVICE:
+            return []
+        return list(domain.default_teachers) if self.teachers is None else list(self.teachers)
+
+    def resolved_preset(self) -> str:
+        if self.preset is not None:
+            return self.preset
+        domain = get_domain(self.env)
+        if self.algo not in domain.presets:
+            raise UnknownNameError(f"algorithm for {self.env}", self.algo, list(domain.presets))
+        return domain.presets[self.algo]
+
+    def validate(self) -> Domain:
+        """Check every field; returns the domain. Raises :class:`ConfigError` naming the field."""
+        domain = get_domain(self.env)
+        get_algorithm(self.algo)
+        if not isinstance(self.steps, int) or isinstance(self.steps, bool) or self.steps <= 0:
+            raise ConfigError(f"steps must be a positive integer, got {self.steps!r}")
+        if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0:
+            raise ConfigError(f"seed must be a non-negative integer, got {self.seed!r}")
+        if self.selector not in SELECTORS:
+            raise UnknownNameError("selector", self.selector, SELECTORS)
+        if self.eval_every is not None and self.eval_every <= 0:
+            raise ConfigError(f"eval_every must be a positive number of steps, got {self.eval_every!r}")
+        if self.eval_episodes < 0:
+            raise ConfigError(f"eval_episodes must be >= 0, got {self.eval_episodes!r}")
+        if self.log_interval <= 0:
+            raise ConfigError(f"log_interval must be positive, got {self.log_interval!r}")
+        for name in self.resolved_teachers(domain):
+            if name not in domain.teacher_names:
+                raise UnknownNameError(f"teacher for {self.env}", name, domain.teacher_names)
+        return domain
+
+
+def hyperparameters(spec: RunSpec) -> dict[str, Any]:
+    """The preset's settings for ``spec.algo`` with ``spec.overrides`` applied."""
+    hp = load_preset(spec.resolved_preset(), spec.algo)
+    hp.update(spec.overrides)
+    if spec.algo == "tlac":
+        hp["selector"] = spec.selector
+    return hp
+
+
+def make_vec_env(domain: Domain, n_envs: int, seed: int, episodes_csv: Path | None) -> EpisodeRecorder:
+    """``n_envs`` copies of the domain's env in a DummyVecEnv, seeded ``seed + i``,
+    recording finished episodes to ``episodes_csv``."""
+    if not isinstance(n_envs, int) or n_envs <= 0:
+        raise ConfigError(f"n_envs must be a positive integer, got {n_envs!r}")
+    venv = DummyVecEnv([domain.make_env for _ in range(n_envs)])
+    venv.seed(seed)
+    return EpisodeRecorder(venv, episodes_csv)
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def _clear_run_folder(out: Path) -> None:
+    for name in RUN_FILES:
+        p = out / name
+        if p.is_dir():
+            shutil.rmtree(p)
+        elif p.exists():
+            p.unlink()
+
+
+def train_run(spec: RunSpec, out_dir: str | Path, progress_bar: bool = False) -> dict[str, Any]:
+    """Train one run described by ``spec`` and write its run folder; returns ``result.json``'s
+    content. An unfinished folder at ``out_dir`` (no ``result.json``) is redone from scratch."""
+    domain = spec.validate()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    _clear_run_folder(out)
+    hp = hyperparameters(spec)
+    n_envs = int(hp.pop("n_envs", 1))
+
+    torch.manual_seed(spec.seed)
+    np.random.seed(spec.seed)
+    probe_env = domain.make_env()
+    teachers = make_teachers(domain, spec.resolved_teachers(domain), probe_env, spec.seed)
+    venv = make_vec_env(domain, n_envs, spec.seed, out / "episodes.csv")
+    recorder = Recorder(
+        out,
+        [t.name for t in teachers] + ["agent"],
+        domain.region_names,
+        domain.region_of,
+        log_interval=spec.log_interval,
+        tensorboard=spec.tensorboard,
+    )
+    config = {**dataclasses.asdict(spec), "teachers": [t.name for t in teachers],
+              "teacher_kinds": spec.resolved_teachers(domain), "preset": spec.resolved_preset(),
+              "hyperparameters": {"n_envs": n_envs, **hp}}
+    (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+
+    algo_cls = get_algorithm(spec.algo)
+    model = algo_cls(env=venv, teachers=teachers, seed=spec.seed, recorder=recorder, **hp)
+
+    eval_rows: list[tuple[int, float, float, int]] = []
+    eval_file = out / "eval.csv"
+    eval_file.write_text("timestep,mean_return,std_return,episodes\n")
+
+    def evaluate(timestep: int) -> None:
+        if spec.eval_episodes <= 0:
+            return
+        returns = evaluate_student(model, domain, spec.eval_episodes, seed=10_000 + spec.seed)
+        row = (timestep, float(returns.mean()), float(returns.std()), len(returns))
+        eval_rows.append(row)
+        with eval_file.open("a") as f:
+            f.write(",".join(str(v) for v in row) + "\n")
+
+    next_eval = spec.eval_every if spec.eval_every else None
+
+    def callback(algo: Any) -> bool:
+        nonlocal next_eval
+        if next_eval is not None and algo.num_timesteps >= next_eval:
+            evaluate(algo.num_timesteps)
+            model.save(out / "checkpoint")
+            next_eval = (algo.num_timesteps // spec.eval_every + 1) * spec.eval_every
+        return True
+
+    start = time.time()
+    if spec.eval_every:
+        evaluate(0)
+    model.learn(spec.steps, callback=callback, progress_bar=progress_bar)
+    wall = time.time() - start
+    recorder.close(model.num_timesteps)
+    model.save(out / "model")
+    if not eval_rows or eval_rows[-1][0] != model.num_timesteps:
+        evaluate(model.num_timesteps)
+    for name in ("checkpoint.pt", "checkpoint.zip"):
+        (out / name).unlink(missing_ok=True)
+    recorder_env = venv
+    result = {
+        "finished": True,
+        "steps": int(model.num_timesteps),
+        "wall_time_s": round(wall, 3),
+        "steps_per_s": round(model.num_timesteps / max(wall, 1e-9), 2),
+        "episodes": int(recorder_env.episodes_done),
+        "final_train_return_mean": recorder_env.mean_recent_return(),
+        "final_eval_mean": eval_rows[-1][1] if eval_rows else None,
+        "final_eval_std": eval_rows[-1][2] if eval_rows else None,
+    }
+    venv.close()
+    probe_env.close()
+    atomic_write_text(out / RESULT_FILE, json.dumps(result, indent=2))
+    return result
+
+
+def load_run_config(run_dir: str | Path) -> dict[str, Any]:
+    """The resolved config of a run folder; :class:`ConfigError` if it is not one."""
+    path = Path(run_dir)
+    if not path.is_dir():
+        raise ConfigError(f"run folder {str(path)!r} does not exist")
+    cfg = path / "config.yaml"
+    if not cfg.exists():
+        raise ConfigError(f"{str(path)!r} is not a run folder: config.yaml is missing")
+    return yaml.safe_load(cfg.read_text())

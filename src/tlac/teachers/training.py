@@ -1,0 +1,265 @@
+"""Train a SAC teacher for Hopper and export its actor (``tlac teacher train``).
+
+The paper's Hopper teacher is "an optimal policy [obtained] with SAC algorithm, which trained
+for 1,000,000 steps" (appendix A.2.1; 1928 +- 646 over 1000 episodes). We train
+stable-baselines3 SAC with rl-baselines3-zoo-like settings, checkpoint model and replay buffer
+every 10k steps (a killed run resumes from its checkpoint and loses nothing finished), then
+evaluate the exported deterministic actor over at least 100 episodes and write
+
+* ``<out>/<env>-sac.pt``: the actor's state dict only (a few hundred kB);
+* ``<out>/<env>-sac.json``: algorithm, steps reached, seed, command, hyperparameters, net
+  arch, mean/std return over N episodes, wall-clock, library versions.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import time
+from importlib import metadata as importlib_metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tlac.errors import ConfigError
+
+SAC_HYPERPARAMS: dict[str, dict[str, Any]] = {
+    # rl-baselines3-zoo's SAC settings for HopperBulletEnv-v0 (gSDE, [400, 300]).
+    "hopper-bullet": dict(
+        learning_rate=7.3e-4,
+        buffer_size=300_000,
+        batch_size=256,
+        gamma=0.98,
+        tau=0.02,
+        train_freq=8,
+        gradient_steps=8,
+        learning_starts=10_000,
+        ent_coef="auto",
+        use_sde=True,
+        policy_kwargs=dict(log_std_init=-3, net_arch=[400, 300]),
+    ),
+    # rl-baselines3-zoo's SAC settings for MuJoCo Hopper: SB3 defaults, 10k warm-up steps.
+    "hopper": dict(
+        learning_rate=3e-4,
+        buffer_size=1_000_000,
+        batch_size=256,
+        gamma=0.99,
+        tau=0.005,
+        train_freq=1,
+        gradient_steps=1,
+        learning_starts=10_000,
+        ent_coef="auto",
+        policy_kwargs=dict(net_arch=[256, 256]),
+    ),
+}
+"""SAC settings per trainable environment (registry name)."""
+
+CHECKPOINT_EVERY = 10_000
+PAPER_RESULT = {"hopper-bullet": "SAC 1e6 steps: 1928 +- 646 over 1000 episodes (appendix A.2.1)"}
+
+
+def _versions() -> dict[str, str]:
+    out = {"python": platform.python_version()}
+    for pkg in (
+        "stable-baselines3",
+        "torch",
+        "gymnasium",
+        "pybullet",
+        "pybullet-envs-gymnasium",
+        "mujoco",
+    ):
+        try:
+            out[pkg] = importlib_metadata.version(pkg)
+        except importlib_metadata.PackageNotFoundError:  # pragma: no cover
+            pass
+    return out
+
+
+def _atomic_write_text(path: Path, text: str) -> None:
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
+def evaluate_actor(
+    env_name: str, teacher: Any, episodes: int, seed: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Run ``episodes`` episodes of a deterministic teacher; returns (returns, lengths).
+    Episode ``i`` is reset with seed ``seed + i``."""
+    from tlac.envs import get_domain
+
+    env = get_domain(env_name).make_env()
+    returns, lengths = [], []
+    try:
+        for i in range(episodes):
+            obs, _ = env.reset(seed=seed + i)
+            done, total, steps = False, 0.0, 0
+            while not done:
+                action = teacher.predict(obs[None])[0]
+                obs, reward, terminated, truncated, _ = env.step(action)
+                total += float(reward)
+                steps += 1
+                done = terminated or truncated
+            returns.append(total)
+            lengths.append(steps)
+    finally:
+        env.close()
+    return np.array(returns), np.array(lengths)
+
+
+def train_teacher(
+    env_name: str,
+    steps: int,
+    seed: int,
+    out_dir: str | Path,
+    progress_bar: bool = True,
+    work_dir: str | Path | None = None,
+    eval_episodes: int = 100,
+    time_limit_s: float | None = None,
+    command: str | None = None,
+) -> dict[str, Any]:
+    """Train SAC on ``env_name`` for ``steps`` environment steps and export the actor.
+
+    ``work_dir`` (default ``runs/teachers/<env>-seed<seed>``) holds the checkpoint
+    (``checkpoint.zip`` + ``replay_buffer.pkl`` + ``state.json``), refreshed every 10k
+    steps; if it exists, training resumes from it. ``time_limit_s`` stops training early
+    (at the next step after the limit) and still evaluates and exports what was reached;
+    the metadata records the steps actually taken. Returns the metadata dict.
+    """
+    if env_name not in SAC_HYPERPARAMS:
+        from tlac.errors import UnknownNameError
+
+        raise UnknownNameError("trainable teacher environment", env_name, list(SAC_HYPERPARAMS))
+    if steps <= 0:
+        raise ConfigError(f"--steps must be a positive integer, got {steps}")
+    if eval_episodes < 1:
+        raise ConfigError(f"eval_episodes must be >= 1, got {eval_episodes}")
+
+    import torch
+    from stable_baselines3 import SAC
+    from stable_baselines3.common.callbacks import BaseCallback
+    from stable_baselines3.common.monitor import Monitor
+
+    from tlac.envs import get_domain
+    from tlac.teachers.sac import SACActor, SACActorTeacher, actor_state_dict, weights_paths
+
+    torch.set_num_threads(1)
+    out_dir = Path(out_dir)
+    work = Path(work_dir) if work_dir is not None else Path("runs/teachers") / f"{env_name}-seed{seed}"
+    work.mkdir(parents=True, exist_ok=True)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    ckpt, buf, state_path = work / "checkpoint.zip", work / "replay_buffer.pkl", work / "state.json"
+    command = command or f"tlac teacher train {env_name} --steps {steps} --seed {seed} --out {out_dir}"
+
+    env = Monitor(get_domain(env_name).make_env(), str(work / "monitor"), override_existing=False)
+    hp = SAC_HYPERPARAMS[env_name]
+    state: dict[str, Any] = {"wall_s": 0.0}
+    if ckpt.is_file():
+        model = SAC.load(ckpt, env=env, device="cpu")
+        if buf.is_file():
+            model.load_replay_buffer(buf)
+        if state_path.is_file():
+            state = json.loads(state_path.read_text())
+        print(f"resuming from {ckpt} at {model.num_timesteps} steps", flush=True)
+    else:
+        model = SAC("MlpPolicy", env, seed=seed, verbose=1, device="cpu", **hp)
+
+    start = time.time()
+    wall_before = float(state.get("wall_s", 0.0))
+
+    def save_checkpoint() -> None:
+        # Write temp files then rename: a kill mid-save leaves the previous checkpoint intact.
+        model.save(work / "checkpoint.tmp.zip")
+        model.save_replay_buffer(work / "replay_buffer.tmp.pkl")
+        os.replace(work / "checkpoint.tmp.zip", ckpt)
+        os.replace(work / "replay_buffer.tmp.pkl", buf)
+        state["wall_s"] = wall_before + time.time() - start
+        state["num_timesteps"] = int(model.num_timesteps)
+        _atomic_write_text(state_path, json.dumps(state))
+
+    class _Checkpoint(BaseCallback):
+        def _on_step(self) -> bool:
+            if self.model.num_timesteps % CHECKPOINT_EVERY == 0:
+                save_checkpoint()
+            if time_limit_s is not None and time.time() - start > time_limit_s:
+                print(f"time limit reached at {self.model.num_timesteps} steps", flush=True)
+                return False
+            return True
+
+    remaining = steps - int(model.num_timesteps)
+    if remaining > 0:
+        model.learn(
+            remaining,
+            callback=_Checkpoint(),
+            log_interval=20,
+            reset_num_timesteps=False,
+            progress_bar=progress_bar,
+        )
+        save_checkpoint()
+    reached = int(model.num_timesteps)
+    train_wall = float(state["wall_s"]) if "wall_s" in state else 0.0
+
+    # Export the actor only and evaluate the exported artifact itself.
+    policy_kwargs = hp.get("policy_kwargs", {})
+    net_arch = list(policy_kwargs.get("net_arch", [256, 256]))
+    clip_mean = 2.0 if hp.get("use_sde", False) else 0.0
+    obs_dim = int(np.prod(env.observation_space.shape))
+    act_dim = int(np.prod(env.action_space.shape))
+    actor = SACActor(obs_dim, act_dim, net_arch, clip_mean)
+    actor.load_state_dict(actor_state_dict(model.actor))
+    low, high = env.action_space.low, env.action_space.high
+    teacher = SACActorTeacher(actor, low, high)
+
+    # Sanity check: the rebuilt actor agrees with SB3's deterministic predict.
+    probe = np.stack([env.observation_space.sample() for _ in range(8)]).astype(np.float32)
+    probe = np.clip(probe, -5, 5)
+    sb3_actions, _ = model.predict(probe, deterministic=True)
+    if not np.allclose(sb3_actions, teacher.predict(probe), atol=1e-5):
+        raise RuntimeError("exported SAC actor disagrees with stable-baselines3's predict")
+
+    eval_seed = 1_000_000 + seed
+    t0 = time.time()
+    returns, lengths = evaluate_actor(env_name, teacher, eval_episodes, eval_seed)
+    meta: dict[str, Any] = {
+        "env": env_name,
+        "algorithm": "SAC (stable-baselines3), deterministic actor: tanh(mu(latent_pi(obs)))",
+        "steps": reached,
+        "target_steps": int(steps),
+        "seed": int(seed),
+        "command": command,
+        "hyperparameters": {k: v for k, v in hp.items() if k != "policy_kwargs"}
+        | {"policy_kwargs": policy_kwargs},
+        "net_arch": net_arch,
+        "clip_mean": clip_mean,
+        "obs_dim": obs_dim,
+        "act_dim": act_dim,
+        "action_low": low.tolist(),
+        "action_high": high.tolist(),
+        "train_wall_clock_s": round(train_wall, 1),
+        "eval": {
+            "episodes": int(eval_episodes),
+            "seeds": f"{eval_seed}..{eval_seed + eval_episodes - 1}",
+            "mean_return": float(returns.mean()),
+            "std_return": float(returns.std()),
+            "min_return": float(returns.min()),
+            "max_return": float(returns.max()),
+            "mean_length": float(lengths.mean()),
+            "wall_clock_s": round(time.time() - t0, 1),
+        },
+        "paper": PAPER_RESULT.get(env_name, "the paper used HopperPyBulletEnv-v0 only"),
+        "versions": _versions(),
+    }
+    pt, meta_path = weights_paths(env_name, out_dir)
+    tmp = pt.with_suffix(".pt.tmp")
+    torch.save(actor.state_dict(), tmp)
+    os.replace(tmp, pt)
+    _atomic_write_text(meta_path, json.dumps(meta, indent=2) + "\n")
+    env.close()
+    print(
+        f"{env_name}: {reached} steps, eval {returns.mean():.1f} +- {returns.std():.1f} "
+        f"over {eval_episodes} episodes -> {pt}",
+        flush=True,
+    )
+    return meta
