@@ -1,0 +1,211 @@
+"""MiniGrid DoorKey 7x7, fully observed and flattened (paper, section 5 and appendix A.1).
+
+The paper uses ``MiniGrid-DoorKey-7x7-v0``; today's MiniGrid no longer registers a 7x7 id,
+so the environment is built from ``minigrid.envs.DoorKeyEnv(size=7)`` directly.
+
+Observation
+    The whole grid, fully observed (``minigrid.wrappers.FullyObsWrapper``): every cell is
+    MiniGrid's 3-tuple ``(object, colour, state)``; the agent's cell holds
+    ``(agent=10, red=0, direction)``. The ``(width, height, 3)`` array, indexed
+    ``[x, y, channel]``, is flattened in C order to 147 ``float32`` values (raw indices, not
+    normalised). The paper: "the state is a 3-tuple vector". Teachers and the agent see the
+    same full state, so a scripted teacher and the region labels can be read off it.
+Actions
+    6 discrete actions, as the paper says: MiniGrid's left, right, forward, pickup, drop and
+    toggle. MiniGrid's 7th action, ``done``, does nothing in DoorKey (it only spends a step),
+    so :class:`FirstActions` drops it; the remaining ids are MiniGrid's own.
+Reward and time limit
+    MiniGrid's: ``1 - 0.9 * step_count / max_steps`` on reaching the goal, else 0, with
+    ``max_steps = 10 * 7**2 = 490``. Reaching the goal is ``terminated``; running out of
+    steps is ``truncated`` (MiniGrid signals it itself, so no extra ``TimeLimit`` is added).
+Regions
+    ``left`` (the key's room, where the agent starts) and ``right`` (the goal's room). The
+    agent counts as in the right room from the wall column on, i.e. when it stands in the
+    open doorway: from there only navigation to the goal remains (Teacher R's sub-task).
+
+>>> env = make_doorkey_env()
+>>> obs, info = env.reset(seed=0)
+>>> obs.shape, env.action_space
+((147,), Discrete(6))
+>>> region_of(obs[None]).tolist()  # the agent starts in the left room
+[0]
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from minigrid.core.constants import COLOR_TO_IDX, OBJECT_TO_IDX, STATE_TO_IDX
+from minigrid.envs import DoorKeyEnv
+from minigrid.wrappers import FullyObsWrapper
+
+from tlac.envs import Domain
+from tlac.errors import ConfigError, UnknownNameError
+from tlac.teachers.base import Teacher
+
+GRID_SIZE = 7
+"""Side of the square grid, outer walls included (the paper's DoorKey 7x7)."""
+MAX_STEPS = 10 * GRID_SIZE**2
+"""MiniGrid's default episode limit for DoorKey: ``10 * size**2`` = 490 steps."""
+N_ACTIONS = 6
+"""left, right, forward, pickup, drop, toggle (MiniGrid ids 0..5); ``done`` (6) is dropped."""
+
+# MiniGrid action ids (minigrid.core.actions.Actions), kept as plain ints for numpy code.
+LEFT, RIGHT, FORWARD, PICKUP, DROP, TOGGLE = range(6)
+ACTION_NAMES = ("left", "right", "forward", "pickup", "drop", "toggle")
+
+# Cell encodings (MiniGrid's constants, re-exported for the teacher and the tests).
+EMPTY = OBJECT_TO_IDX["empty"]
+WALL = OBJECT_TO_IDX["wall"]
+DOOR = OBJECT_TO_IDX["door"]
+KEY = OBJECT_TO_IDX["key"]
+GOAL = OBJECT_TO_IDX["goal"]
+AGENT = OBJECT_TO_IDX["agent"]
+DOOR_OPEN, DOOR_CLOSED, DOOR_LOCKED = (STATE_TO_IDX[s] for s in ("open", "closed", "locked"))
+
+# Largest value each channel can take: object index, colour index, state (door state or the
+# agent's direction, both <= 3).
+_CHANNEL_HIGH = np.array(
+    [max(OBJECT_TO_IDX.values()), max(COLOR_TO_IDX.values()), 3], dtype=np.float32
+)
+
+
+class FlatFullGrid(gym.ObservationWrapper):
+    """Keep only the fully observed grid of a :class:`FullyObsWrapper` env and flatten it.
+
+    The output is ``grid[x, y, c]`` flattened in C order (index ``(x * height + y) * 3 + c``),
+    as ``float32`` so that it can feed a network without a cast.
+    """
+
+    def __init__(self, env: gym.Env):
+        super().__init__(env)
+        width, height = env.unwrapped.width, env.unwrapped.height
+        high = np.tile(_CHANNEL_HIGH, width * height)
+        self.observation_space = gym.spaces.Box(
+            low=np.zeros_like(high), high=high, dtype=np.float32
+        )
+
+    def observation(self, observation: dict[str, Any]) -> np.ndarray:
+        return np.asarray(observation["image"], dtype=np.float32).reshape(-1)
+
+
+class FirstActions(gym.ActionWrapper):
+    """Expose only the first ``n`` actions of a ``Discrete`` action space, ids unchanged.
+
+    Used to drop MiniGrid's no-op ``done`` action, leaving the paper's 6 actions.
+    """
+
+    def __init__(self, env: gym.Env, n: int):
+        super().__init__(env)
+        space = env.action_space
+        if not isinstance(space, gym.spaces.Discrete) or not 1 <= n <= space.n:
+            raise ConfigError(f"FirstActions needs a Discrete space with at least {n} actions")
+        self.action_space = gym.spaces.Discrete(n, start=int(space.start))
+
+    def action(self, action: Any) -> int:
+        return int(action)
+
+
+def make_doorkey_env(
+    render_mode: str | None = None, size: int = GRID_SIZE, max_steps: int | None = None
+) -> gym.Env:
+    """Build one DoorKey env (default: the paper's 7x7) with the observation and action
+    spaces described in the module docstring. ``max_steps=None`` keeps MiniGrid's default,
+    ``10 * size**2``."""
+    base = DoorKeyEnv(size=size, max_steps=max_steps, render_mode=render_mode)
+    return FirstActions(FlatFullGrid(FullyObsWrapper(base)), N_ACTIONS)
+
+
+def obs_to_grid(obs_batch: np.ndarray) -> np.ndarray:
+    """Flattened observations ``(n, 3 * s * s)`` -> integer grids ``(n, s, s, 3)``, indexed
+    ``[row, x, y, channel]``. A single observation ``(3 * s * s,)`` is accepted too."""
+    obs = np.asarray(obs_batch)
+    if obs.ndim == 1:
+        obs = obs[None]
+    cells = obs.shape[1] // 3
+    side = int(round(np.sqrt(cells)))
+    if obs.ndim != 2 or side * side * 3 != obs.shape[1]:
+        raise ConfigError(
+            f"expected flattened DoorKey observations of shape (n, 3*s*s); got {obs.shape}"
+        )
+    return np.rint(obs).astype(np.int64).reshape(obs.shape[0], side, side, 3)
+
+
+def agent_positions(grids: np.ndarray) -> np.ndarray:
+    """``(n, s, s, 3)`` grids -> ``(n, 2)`` agent ``(x, y)``."""
+    is_agent = grids[..., 0] == AGENT
+    found = is_agent.reshape(len(grids), -1)
+    if not found.any(axis=1).all():
+        raise ConfigError("a DoorKey observation has no agent cell")
+    flat = found.argmax(axis=1)
+    side = grids.shape[1]
+    return np.stack([flat // side, flat % side], axis=1)
+
+
+def wall_columns(grids: np.ndarray) -> np.ndarray:
+    """The x of the splitting wall per grid: the inner column with the most wall cells
+    (it is all wall but the door; every other inner column has none)."""
+    inner = grids[:, 1:-1, 1:-1, 0] == WALL  # (n, x, y) without the outer walls
+    return inner.sum(axis=2).argmax(axis=1) + 1
+
+
+def region_of(obs_batch: np.ndarray) -> np.ndarray:
+    """Region index per observation: 0 = ``left`` (agent's x below the wall column),
+    1 = ``right`` (agent in the doorway or beyond). Vectorised over the batch."""
+    grids = obs_to_grid(obs_batch)
+    return (agent_positions(grids)[:, 0] >= wall_columns(grids)).astype(np.int64)
+
+
+TEACHER_NAMES = ("optimal", "good", "noisy", "random", "L", "R")
+REGION_NAMES = ("left", "right")
+
+
+def make_teacher(name: str, env: gym.Env, seed: int) -> Teacher:
+    """The paper's DoorKey teachers (appendix A.1.1), built on the scripted shortest-path
+    teacher :class:`tlac.teachers.doorkey.DoorKeyOptimalTeacher`:
+
+    ``optimal``; ``good`` / ``noisy`` = optimal with probability 0.8 / 0.2, else a uniformly
+    random action; ``random``; ``L`` = optimal in the left room, random in the right;
+    ``R`` = optimal in the right room (the goal's), random in the left (the appendix's text
+    for R repeats L's, a typo).
+    """
+    # Imported here: tlac.teachers.doorkey reads this module's constants.
+    from tlac.teachers.doorkey import DoorKeyOptimalTeacher
+    from tlac.teachers.wrappers import MixedRandomTeacher, PartialTeacher, RandomTeacher
+
+    space = env.action_space
+    if name == "optimal":
+        return DoorKeyOptimalTeacher()
+    if name == "good":
+        return MixedRandomTeacher(DoorKeyOptimalTeacher(), 0.8, space, seed, name="good")
+    if name == "noisy":
+        return MixedRandomTeacher(DoorKeyOptimalTeacher(), 0.2, space, seed, name="noisy")
+    if name == "random":
+        return RandomTeacher(space, seed)
+    if name == "L":
+        return PartialTeacher(DoorKeyOptimalTeacher(), region_of, [0], space, seed, name="L")
+    if name == "R":
+        return PartialTeacher(DoorKeyOptimalTeacher(), region_of, [1], space, seed, name="R")
+    raise UnknownNameError("teacher for doorkey", name, TEACHER_NAMES)
+
+
+DOMAIN = Domain(
+    name="doorkey",
+    description="MiniGrid DoorKey 7x7, fully observed grid flattened to 147 values, 6 actions",
+    make_env=make_doorkey_env,
+    teacher_names=TEACHER_NAMES,
+    make_teacher=make_teacher,
+    region_names=REGION_NAMES,
+    region_of=region_of,
+    presets={
+        "tlac": "doorkey",
+        "a2c": "doorkey",
+        "ppo": "doorkey",
+        "dqn-tlql": "doorkey",
+        "ac-teach": "doorkey",
+    },
+    default_teachers=("optimal", "random", "random"),
+    max_episode_steps=MAX_STEPS,
+)
