@@ -26,7 +26,9 @@ import numpy as np
 from tlac.errors import ConfigError
 
 SAC_HYPERPARAMS: dict[str, dict[str, Any]] = {
-    # rl-baselines3-zoo's SAC settings for HopperBulletEnv-v0 (gSDE, [400, 300]).
+    # rl-baselines3-zoo's SAC settings for HopperBulletEnv-v0 (gSDE), but [256, 256] instead
+    # of [400, 300]: about twice the steps per second on one CPU core (measured 34 steps/s
+    # with [400, 300]), which matters more in a wall-clock-limited run.
     "hopper-bullet": dict(
         learning_rate=7.3e-4,
         buffer_size=300_000,
@@ -38,7 +40,7 @@ SAC_HYPERPARAMS: dict[str, dict[str, Any]] = {
         learning_starts=10_000,
         ent_coef="auto",
         use_sde=True,
-        policy_kwargs=dict(log_std_init=-3, net_arch=[400, 300]),
+        policy_kwargs=dict(log_std_init=-3, net_arch=[256, 256]),
     ),
     # rl-baselines3-zoo's SAC settings for MuJoCo Hopper: SB3 defaults, 10k warm-up steps.
     "hopper": dict(

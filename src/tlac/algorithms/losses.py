@@ -1,0 +1,56 @@
+"""Pure loss functions of TL-AC's update (paper, Eq. 3 and Eq. 7, in their clipped form).
+
+The paper's hyperparameter tables (clip range, target KL, epochs) show that its losses
+``log pi(a|s) A(s, a)`` were optimised with PPO's clipped surrogate; both levels use the
+SAME advantage from the shared critic (Eq. 6).
+
+>>> import torch
+>>> ratio_one = torch.zeros(2)
+>>> float(clipped_policy_loss(ratio_one, ratio_one, torch.tensor([1.0, -1.0]), 0.2))
+-0.0
+"""
+
+from __future__ import annotations
+
+import torch
+
+
+def clipped_policy_loss(
+    log_prob: torch.Tensor, old_log_prob: torch.Tensor, advantages: torch.Tensor, clip_range: float
+) -> torch.Tensor:
+    """``-mean(min(r A, clip(r, 1-eps, 1+eps) A))`` with ``r = exp(log_prob - old_log_prob)``."""
+    ratio = torch.exp(log_prob - old_log_prob)
+    unclipped = ratio * advantages
+    clipped = torch.clamp(ratio, 1.0 - clip_range, 1.0 + clip_range) * advantages
+    return -torch.min(unclipped, clipped).mean()
+
+
+def masked_clipped_policy_loss(
+    log_prob: torch.Tensor,
+    old_log_prob: torch.Tensor,
+    advantages: torch.Tensor,
+    clip_range: float,
+    mask: torch.Tensor,
+) -> torch.Tensor:
+    """The clipped loss over the rows where ``mask`` is true (0 when none is)."""
+    ratio = torch.exp(log_prob - old_log_prob)
+    surrogate = torch.min(ratio * advantages, torch.clamp(ratio, 1.0 - clip_range, 1.0 + clip_range) * advantages)
+    weight = mask.float()
+    return -(surrogate * weight).sum() / weight.sum().clamp(min=1.0)
+
+
+def value_loss(values: torch.Tensor, returns: torch.Tensor) -> torch.Tensor:
+    """Squared error of the shared critic against the GAE returns."""
+    return ((returns - values) ** 2).mean()
+
+
+def approx_kl(log_prob: torch.Tensor, old_log_prob: torch.Tensor) -> torch.Tensor:
+    """``E[(r - 1) - log r]``, the low-variance KL estimate SB3 uses for target-KL stopping."""
+    log_ratio = log_prob - old_log_prob
+    return ((torch.exp(log_ratio) - 1) - log_ratio).mean()
+
+
+def normalize(advantages: torch.Tensor, eps: float = 1e-8) -> torch.Tensor:
+    if advantages.numel() < 2:
+        return advantages
+    return (advantages - advantages.mean()) / (advantages.std() + eps)

@@ -1,0 +1,86 @@
+"""Time-major rollout storage and GAE with time-limit bootstrap.
+
+:class:`Rollout` is a dataclass of tensors of shape ``(n_steps, n_envs, ...)``: adding a field is
+one line. The teacher index ``choices`` and both levels' log-probabilities of what happened
+are stored at collection time (Algorithm 1, line 19), so the clipped ratios of the update
+compare against the behaviour that produced the data.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+import torch
+
+
+@dataclass
+class Rollout:
+    obs: torch.Tensor  # (T, E, obs_dim) float32
+    actions: torch.Tensor  # (T, E) int64 or (T, E, act_dim) float32: the EXECUTED actions
+    choices: torch.Tensor  # (T, E) int64: teacher index, n_teachers = the agent itself
+    rewards: torch.Tensor  # (T, E) float32, with gamma * V(final obs) added on truncation
+    dones: torch.Tensor  # (T, E) float32: the episode ended after this step
+    values: torch.Tensor  # (T, E) float32: V(s_t) at collection time
+    log_prob_low: torch.Tensor  # (T, E): log pi_low(a_t | s_t) at collection time
+    log_prob_high: torch.Tensor  # (T, E): log pi_high(e_t | s_t) at collection time
+    advantages: torch.Tensor  # (T, E), filled by compute_gae
+    returns: torch.Tensor  # (T, E), filled by compute_gae
+
+    @classmethod
+    def empty(cls, n_steps: int, n_envs: int, obs_dim: int, action_shape: tuple[int, ...], discrete: bool) -> Rollout:
+        te = (n_steps, n_envs)
+        z = lambda *shape, dtype=torch.float32: torch.zeros(*shape, dtype=dtype)  # noqa: E731
+        return cls(
+            obs=z(*te, obs_dim),
+            actions=z(*te, dtype=torch.int64) if discrete else z(*te, *action_shape),
+            choices=z(*te, dtype=torch.int64),
+            rewards=z(*te),
+            dones=z(*te),
+            values=z(*te),
+            log_prob_low=z(*te),
+            log_prob_high=z(*te),
+            advantages=z(*te),
+            returns=z(*te),
+        )
+
+    def flat(self) -> dict[str, torch.Tensor]:
+        """Every field with time and env axes merged: ``(T * E, ...)``."""
+        out = {}
+        for f in fields(self):
+            t = getattr(self, f.name)
+            out[f.name] = t.reshape(t.shape[0] * t.shape[1], *t.shape[2:])
+        return out
+
+
+def compute_gae(
+    rewards: np.ndarray,
+    values: np.ndarray,
+    dones: np.ndarray,
+    last_values: np.ndarray,
+    gamma: float,
+    gae_lambda: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Generalized advantage estimation over time-major arrays ``(T, E)``.
+
+    ``dones[t]`` marks that the episode ended after step ``t`` (the value of ``s_{t+1}`` is not
+    bootstrapped; a time-limit truncation has already added ``gamma * V(final obs)`` to the
+    reward). ``last_values`` is ``V(s_T)`` for the state after the rollout.
+    With ``gae_lambda = 0`` the advantage is exactly the paper's Eq. 2:
+    ``A = r_t + gamma V(s_{t+1}) - V(s_t)``.
+
+    >>> adv, ret = compute_gae(np.array([[1.0]]), np.array([[0.5]]), np.array([[0.0]]), np.array([2.0]), 0.9, 0.0)
+    >>> round(float(adv[0, 0]), 6)   # 1 + 0.9 * 2 - 0.5
+    2.3
+    """
+    n_steps = rewards.shape[0]
+    advantages = np.zeros_like(rewards, dtype=np.float64)
+    last_gae = np.zeros_like(last_values, dtype=np.float64)
+    for t in reversed(range(n_steps)):
+        next_values = last_values if t == n_steps - 1 else values[t + 1]
+        not_done = 1.0 - dones[t]
+        delta = rewards[t] + gamma * next_values * not_done - values[t]
+        last_gae = delta + gamma * gae_lambda * not_done * last_gae
+        advantages[t] = last_gae
+    returns = advantages + values
+    return advantages.astype(np.float32), returns.astype(np.float32)
