@@ -83,9 +83,7 @@ class FetchVectorObservation(gym.Wrapper):
     def reset(self, **kwargs: Any) -> tuple[np.ndarray, dict[str, Any]]:
         obs, info = self.env.reset(**kwargs)
         info = dict(info)
-        info["is_success"] = bool(
-            np.linalg.norm(obs["achieved_goal"] - obs["desired_goal"]) < 0.05
-        )
+        info["is_success"] = bool(np.linalg.norm(obs["achieved_goal"] - obs["desired_goal"]) < 0.05)
         return obs["observation"].astype(np.float32), info
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:

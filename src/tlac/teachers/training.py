@@ -149,11 +149,15 @@ def train_teacher(
 
     torch.set_num_threads(1)
     out_dir = Path(out_dir)
-    work = Path(work_dir) if work_dir is not None else Path("runs/teachers") / f"{env_name}-seed{seed}"
+    work = (
+        Path(work_dir) if work_dir is not None else Path("runs/teachers") / f"{env_name}-seed{seed}"
+    )
     work.mkdir(parents=True, exist_ok=True)
     out_dir.mkdir(parents=True, exist_ok=True)
     ckpt, buf, state_path = work / "checkpoint.zip", work / "replay_buffer.pkl", work / "state.json"
-    command = command or f"tlac teacher train {env_name} --steps {steps} --seed {seed} --out {out_dir}"
+    command = (
+        command or f"tlac teacher train {env_name} --steps {steps} --seed {seed} --out {out_dir}"
+    )
 
     env = Monitor(get_domain(env_name).make_env(), str(work / "monitor"), override_existing=False)
     hp = SAC_HYPERPARAMS[env_name]
