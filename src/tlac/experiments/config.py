@@ -1,0 +1,396 @@
+"""Experiment files: the YAML schema, its validation, and the typed config it loads into.
+
+An experiment declares one grid of runs (paper, section 4 and Appendix A): one domain x
+named teacher sets x algorithms x seeds, with a step budget and a schedule for evaluating the
+student alone. ``docs/experiments.md`` documents every field; a minimal file::
+
+    domain: doorkey
+    steps: 500000
+    seeds: 5                      # or a list: [0, 1, 2]
+    eval: {every: 10000, episodes: 10}
+    baseline: a2c                 # the no-advice baseline of the jumpstart (Taylor & Stone 2009)
+    teacher_sets:
+      3good: [good, good, good]
+      2good-1noisy: {label: "2 good + 1 noisy", teachers: [good, good, noisy]}
+    algorithms:
+      - name: tlac
+      - name: tlac
+        selector: ucb1            # ablation (Figure 11)
+      - name: a2c                 # no advice: one run per seed, no teacher set
+
+Every problem is one :class:`~tlac.errors.ConfigError` whose message names the file, the
+field and what is accepted, e.g. ``configs/x.yaml: field 'algorithms[1].name': unknown
+algorithm 'foo'; expected one of: tlac, ppo, a2c, dqn-tlql, ac-teach``.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from tlac.algorithms import NO_ADVICE, algorithm_names
+from tlac.envs import domain_names, get_domain
+from tlac.errors import ConfigError, TlacError
+from tlac.presets import load_preset, preset_names
+from tlac.run import SELECTORS
+
+NO_TEACHERS = "none"
+"""Teacher-set key of the no-advice runs (``a2c``/``ppo``): they take no teachers."""
+
+_SLUG = re.compile(r"^[A-Za-z0-9][A-Za-z0-9.+-]*(_[A-Za-z0-9.+-]+)*$")
+
+TOP_KEYS = (
+    "name",
+    "description",
+    "domain",
+    "steps",
+    "seeds",
+    "eval",
+    "log_interval",
+    "teacher_eval_episodes",
+    "baseline",
+    "metrics",
+    "teacher_sets",
+    "algorithms",
+)
+EVAL_KEYS = ("every", "episodes")
+METRIC_KEYS = (
+    "jumpstart_window",
+    "final_window",
+    "threshold",
+    "curve_points",
+    "bootstrap_reps",
+    "bootstrap_seed",
+)
+TEACHER_SET_KEYS = ("label", "teachers")
+ALGORITHM_KEYS = ("name", "label", "preset", "overrides", "selector", "seeds", "teacher_sets")
+
+
+@dataclass(frozen=True)
+class EvalSchedule:
+    """Evaluation of the student alone (the low-level policy, no teacher)."""
+
+    every: int | None = None
+    """Evaluate every this many environment steps; ``None``: only at the end of the run."""
+    episodes: int = 10
+    """Episodes per evaluation (0 disables it)."""
+
+
+@dataclass(frozen=True)
+class MetricSettings:
+    """Settings of the report's metrics (``tlac.experiments.metrics``)."""
+
+    jumpstart_window: int = 10_000
+    """Jumpstart: mean training return over the first this many steps, minus the baseline's."""
+    final_window: int | None = None
+    """Final performance: mean training return over the last this many steps
+    (``None``: the last 10% of the budget)."""
+    threshold: float | None = None
+    """Time to threshold: first step at which the mean training curve reaches this return."""
+    curve_points: int = 100
+    """Points of the common step grid that learning curves are resampled onto."""
+    bootstrap_reps: int = 2000
+    """Bootstrap resamples for the interquartile-mean confidence intervals."""
+    bootstrap_seed: int = 0
+    """Random state of the bootstrap (fixed, so that reports are reproducible)."""
+
+
+@dataclass(frozen=True)
+class TeacherSet:
+    """A named set of the domain's teachers (duplicates allowed: ``[good, good, good]``)."""
+
+    key: str
+    """Identifier used in run names and tables (letters, digits, ``. + - _``)."""
+    teachers: tuple[str, ...]
+    label: str
+    """Human-readable name for tables and plot titles."""
+
+
+@dataclass(frozen=True)
+class AlgorithmEntry:
+    """One algorithm of the grid, with its hyperparameters."""
+
+    name: str
+    """Registered algorithm name (``tlac.algorithms.algorithm_names()``)."""
+    key: str
+    """Identifier in run names and tables: ``label`` if given, else ``name`` plus
+    ``__<selector>`` when TL-AC's high level is not the learned one."""
+    preset: str | None = None
+    overrides: dict[str, Any] = field(default_factory=dict)
+    selector: str = "learned"
+    seeds: tuple[int, ...] | None = None
+    """Seeds of this algorithm (``None``: the experiment's); the paper ran AC-Teach on 3."""
+    teacher_sets: tuple[str, ...] | None = None
+    """Teacher-set keys this algorithm runs on (``None``: all)."""
+
+    @property
+    def no_advice(self) -> bool:
+        return self.name in NO_ADVICE
+
+
+@dataclass(frozen=True)
+class ExperimentConfig:
+    """A validated experiment file."""
+
+    name: str
+    domain: str
+    steps: int
+    seeds: tuple[int, ...]
+    teacher_sets: tuple[TeacherSet, ...]
+    algorithms: tuple[AlgorithmEntry, ...]
+    eval: EvalSchedule = EvalSchedule()
+    log_interval: int = 2000
+    teacher_eval_episodes: int = 20
+    """Episodes to measure each teacher's own return (reference lines in the plots)."""
+    baseline: str | None = None
+    """Key of the no-advice algorithm that jumpstarts are measured against."""
+    metrics: MetricSettings = MetricSettings()
+    description: str = ""
+    source: str = ""
+    """The file it was loaded from (for messages)."""
+    raw: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
+    """The YAML mapping as loaded (copied to ``DIR/experiment.yaml``)."""
+
+    def teacher_set(self, key: str) -> TeacherSet:
+        for ts in self.teacher_sets:
+            if ts.key == key:
+                return ts
+        raise KeyError(key)
+
+    def algorithm(self, key: str) -> AlgorithmEntry:
+        for a in self.algorithms:
+            if a.key == key:
+                return a
+        raise KeyError(key)
+
+
+class _Fields:
+    """Builds error messages ``<file>: field '<path>': <problem>``."""
+
+    def __init__(self, source: str):
+        self.source = source
+
+    def error(self, path: str, problem: str) -> ConfigError:
+        return ConfigError(f"{self.source}: field '{path}': {problem}")
+
+    def mapping(self, path: str, value: Any, accepted: tuple[str, ...]) -> dict[str, Any]:
+        if not isinstance(value, dict):
+            raise self.error(path, f"expected a mapping, got {type(value).__name__} {value!r}")
+        for k in value:
+            if k not in accepted:
+                prefix = f"{path}." if path else ""
+                raise ConfigError(
+                    f"{self.source}: field '{prefix}{k}': unknown key {k!r}; "
+                    f"expected one of: {', '.join(accepted)}"
+                )
+        return value
+
+    def integer(self, path: str, value: Any, minimum: int) -> int:
+        if isinstance(value, float) and value.is_integer():  # YAML's 5e5 is a float
+            value = int(value)
+        if not isinstance(value, int) or isinstance(value, bool) or value < minimum:
+            raise self.error(path, f"expected an integer >= {minimum}, got {value!r}")
+        return value
+
+    def number(self, path: str, value: Any) -> float:
+        if not isinstance(value, int | float) or isinstance(value, bool):
+            raise self.error(path, f"expected a number, got {value!r}")
+        return float(value)
+
+    def slug(self, path: str, value: Any) -> str:
+        if not isinstance(value, str) or not _SLUG.match(value):
+            raise self.error(
+                path,
+                f"expected a name of letters, digits and '. + - _' (no '__', not starting "
+                f"with a symbol), got {value!r}",
+            )
+        return value
+
+    def string(self, path: str, value: Any) -> str:
+        if not isinstance(value, str):
+            raise self.error(path, f"expected a string, got {value!r}")
+        return value
+
+    def choice(self, path: str, value: Any, kind: str, accepted: list[str] | tuple[str, ...]) -> str:
+        if value not in accepted:
+            raise self.error(path, f"unknown {kind} {value!r}; expected one of: {', '.join(accepted)}")
+        return value
+
+    def seeds(self, path: str, value: Any) -> tuple[int, ...]:
+        if isinstance(value, int) and not isinstance(value, bool):
+            return tuple(range(self.integer(path, value, 1)))
+        if not isinstance(value, list) or not value:
+            raise self.error(path, f"expected a number of seeds or a non-empty list of seeds, got {value!r}")
+        seeds = tuple(self.integer(f"{path}[{i}]", s, 0) for i, s in enumerate(value))
+        if len(set(seeds)) != len(seeds):
+            raise self.error(path, f"seeds must be distinct, got {list(seeds)}")
+        return seeds
+
+
+def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
+    """Validate a loaded YAML mapping and build the :class:`ExperimentConfig`.
+
+    Raises :class:`ConfigError` naming ``source``, the field and what is accepted.
+    """
+    f = _Fields(source)
+    if data is None:
+        raise ConfigError(f"{source}: the file is empty; expected a mapping with keys: {', '.join(TOP_KEYS)}")
+    top = f.mapping("", data, TOP_KEYS)
+    for required in ("domain", "steps", "seeds", "algorithms"):
+        if required not in top:
+            raise f.error(required, "missing (required)")
+
+    domain_name = f.choice("domain", top["domain"], "domain", domain_names())
+    try:
+        domain = get_domain(domain_name)
+    except TlacError as exc:
+        raise f.error("domain", str(exc)) from exc
+
+    name = f.slug("name", top.get("name", Path(source).stem if source != "<experiment>" else "experiment"))
+    steps = f.integer("steps", top["steps"], 1)
+    seeds = f.seeds("seeds", top["seeds"])
+
+    ev = f.mapping("eval", top.get("eval") or {}, EVAL_KEYS)
+    every = ev.get("every")
+    schedule = EvalSchedule(
+        every=None if every is None else f.integer("eval.every", every, 1),
+        episodes=f.integer("eval.episodes", ev.get("episodes", 10), 0),
+    )
+    log_interval = f.integer("log_interval", top.get("log_interval", 2000), 1)
+    teacher_eval_episodes = f.integer("teacher_eval_episodes", top.get("teacher_eval_episodes", 20), 0)
+
+    m = f.mapping("metrics", top.get("metrics") or {}, METRIC_KEYS)
+    metrics = MetricSettings(
+        jumpstart_window=f.integer("metrics.jumpstart_window", m.get("jumpstart_window", 10_000), 1),
+        final_window=None if m.get("final_window") is None else f.integer("metrics.final_window", m["final_window"], 1),
+        threshold=None if m.get("threshold") is None else f.number("metrics.threshold", m["threshold"]),
+        curve_points=f.integer("metrics.curve_points", m.get("curve_points", 100), 2),
+        bootstrap_reps=f.integer("metrics.bootstrap_reps", m.get("bootstrap_reps", 2000), 1),
+        bootstrap_seed=f.integer("metrics.bootstrap_seed", m.get("bootstrap_seed", 0), 0),
+    )
+
+    # teacher sets: key -> [names] or {label, teachers}
+    raw_sets = top.get("teacher_sets") or {}
+    if not isinstance(raw_sets, dict):
+        raise f.error("teacher_sets", f"expected a mapping of set name -> list of teachers, got {raw_sets!r}")
+    teacher_sets: list[TeacherSet] = []
+    for key, value in raw_sets.items():
+        path = f"teacher_sets.{key}"
+        f.slug(path, key)
+        if key == NO_TEACHERS:
+            raise f.error(path, f"{NO_TEACHERS!r} is reserved for the no-advice runs")
+        label = key
+        if isinstance(value, dict):
+            value = f.mapping(path, value, TEACHER_SET_KEYS)
+            if "teachers" not in value:
+                raise f.error(f"{path}.teachers", "missing (required)")
+            label = f.string(f"{path}.label", value.get("label", key))
+            value = value["teachers"]
+            path = f"{path}.teachers"
+        if not isinstance(value, list) or not value:
+            raise f.error(path, f"expected a non-empty list of teacher names, got {value!r}")
+        for i, t in enumerate(value):
+            f.choice(f"{path}[{i}]", t, f"teacher for {domain_name}", domain.teacher_names)
+        teacher_sets.append(TeacherSet(key=key, teachers=tuple(value), label=label))
+    set_keys = [ts.key for ts in teacher_sets]
+
+    raw_algos = top["algorithms"]
+    if not isinstance(raw_algos, list) or not raw_algos:
+        raise f.error("algorithms", f"expected a non-empty list of algorithms, got {raw_algos!r}")
+    algorithms: list[AlgorithmEntry] = []
+    for i, entry in enumerate(raw_algos):
+        path = f"algorithms[{i}]"
+        if isinstance(entry, str):
+            entry = {"name": entry}
+        entry = f.mapping(path, entry, ALGORITHM_KEYS)
+        if "name" not in entry:
+            raise f.error(f"{path}.name", "missing (required)")
+        algo = f.choice(f"{path}.name", entry["name"], "algorithm", algorithm_names())
+        if algo not in domain.presets and entry.get("preset") is None:
+            raise f.error(
+                f"{path}.name",
+                f"algorithm {algo!r} has no preset for domain {domain_name!r}; expected one of: "
+                f"{', '.join(domain.presets)} (or give 'preset')",
+            )
+        preset = entry.get("preset")
+        if preset is not None:
+            f.choice(f"{path}.preset", preset, "preset", preset_names())
+            try:
+                load_preset(preset, algo)
+            except TlacError as exc:
+                raise f.error(f"{path}.preset", str(exc)) from exc
+        overrides = entry.get("overrides") or {}
+        if not isinstance(overrides, dict):
+            raise f.error(f"{path}.overrides", f"expected a mapping of hyperparameter -> value, got {overrides!r}")
+        selector = "learned"
+        if "selector" in entry:
+            if algo != "tlac":
+                raise f.error(f"{path}.selector", f"only algorithm 'tlac' has a selector, not {algo!r}")
+            selector = f.choice(f"{path}.selector", entry["selector"], "selector", SELECTORS)
+        algo_seeds = None if entry.get("seeds") is None else f.seeds(f"{path}.seeds", entry["seeds"])
+        algo_sets = None
+        if entry.get("teacher_sets") is not None:
+            if algo in NO_ADVICE:
+                raise f.error(f"{path}.teacher_sets", f"{algo!r} takes no teachers (a no-advice baseline)")
+            if not isinstance(entry["teacher_sets"], list):
+                raise f.error(f"{path}.teacher_sets", f"expected a list of teacher-set names, got {entry['teacher_sets']!r}")
+            algo_sets = tuple(
+                f.choice(f"{path}.teacher_sets[{j}]", k, "teacher set", set_keys)
+                for j, k in enumerate(entry["teacher_sets"])
+            )
+        if "label" in entry:
+            key = f.slug(f"{path}.label", entry["label"])
+        else:
+            key = algo if selector == "learned" else f"{algo}__{selector}"
+        if any(a.key == key for a in algorithms):
+            raise f.error(path, f"algorithm {key!r} appears twice; give one of them a distinct 'label'")
+        algorithms.append(
+            AlgorithmEntry(
+                name=algo, key=key, preset=preset, overrides=dict(overrides), selector=selector,
+                seeds=algo_seeds, teacher_sets=algo_sets,
+            )
+        )
+        if algo not in NO_ADVICE and not teacher_sets:
+            raise f.error("teacher_sets", f"algorithm {algo!r} needs teachers but no teacher set is declared")
+
+    baseline = top.get("baseline")
+    if baseline is not None:
+        f.choice("baseline", baseline, "baseline algorithm (one of the no-advice entries in 'algorithms')",
+                 [a.key for a in algorithms if a.no_advice])
+    else:
+        no_advice = [a.key for a in algorithms if a.no_advice]
+        baseline = no_advice[0] if no_advice else None
+
+    description = top.get("description", "")
+    return ExperimentConfig(
+        name=name,
+        domain=domain_name,
+        steps=steps,
+        seeds=seeds,
+        teacher_sets=tuple(teacher_sets),
+        algorithms=tuple(algorithms),
+        eval=schedule,
+        log_interval=log_interval,
+        teacher_eval_episodes=teacher_eval_episodes,
+        baseline=baseline,
+        metrics=metrics,
+        description=f.string("description", description) if description else "",
+        source=source,
+        raw=dict(top),
+    )
+
+
+def load_config(path: str | Path) -> ExperimentConfig:
+    """Read and validate an experiment YAML file (see the module docstring)."""
+    p = Path(path)
+    if not p.is_file():
+        raise ConfigError(f"{p}: experiment file not found")
+    try:
+        data = yaml.safe_load(p.read_text())
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{p}: not valid YAML: {exc}") from exc
+    return parse_config(data, str(p))

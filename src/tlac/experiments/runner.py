@@ -1,0 +1,505 @@
+"""Run an experiment's grid: in parallel processes on this machine, or as Ray tasks on a cluster.
+
+Both runners share one contract:
+
+* ``DIR/experiment.yaml`` is a copy of the experiment file; ``DIR/runs/<name>/`` is one run
+  folder each (``docs/architecture.md``); ``DIR/teachers.json`` holds each teacher's own return.
+* A run is finished once its ``result.json`` exists: ``tlac.run.train_run`` writes it last and
+  atomically. Rerunning the same command skips finished runs and redoes every other one from
+  scratch (an interrupted folder is cleared first), so a grid is resumable and loss-free.
+  Finished run folders are never opened for writing again.
+* A run that raises writes ``error.txt`` (the traceback) into its folder, is reported, and does
+  not stop the others; it is redone on the next invocation.
+
+Local: a :class:`~concurrent.futures.ProcessPoolExecutor` of ``workers`` spawned processes, each
+with ``torch.set_num_threads(1)``; workers die with the driver (``PR_SET_PDEATHSIG``), and a lock
+on ``DIR/.lock`` keeps two drivers off one folder. Ray: one ``@ray.remote`` task per run; each
+task trains into a temporary folder on its node and returns the packed folder, which the driver
+writes into ``DIR`` (so ``DIR`` need not be on a shared filesystem; see ``docs/experiments.md``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import io
+import json
+import os
+import shutil
+import signal
+import sys
+import tarfile
+import tempfile
+import time
+import traceback
+from collections.abc import Callable, Iterator
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from tlac.errors import ConfigError
+from tlac.experiments.config import ExperimentConfig
+from tlac.experiments.grid import ERROR_FILE, RUNS_DIR, GridRun, expand_grid, run_dir, run_status
+from tlac.run import RESULT_FILE, RunSpec, atomic_write_text
+
+EXPERIMENT_FILE = "experiment.yaml"
+TEACHERS_FILE = "teachers.json"
+LOCK_FILE = ".lock"
+
+
+@dataclass
+class GridSummary:
+    """What one invocation of a runner did."""
+
+    total: int = 0
+    skipped: int = 0
+    """Runs already finished before this invocation (left untouched)."""
+    finished: list[str] = field(default_factory=list)
+    failed: dict[str, str] = field(default_factory=dict)
+    """Run name -> one-line error."""
+    interrupted: bool = False
+
+    @property
+    def ok(self) -> bool:
+        return not self.failed and not self.interrupted
+
+    def lines(self) -> list[str]:
+        out = [
+            f"{self.total} runs: {self.skipped} already finished, {len(self.finished)} finished now, "
+            f"{len(self.failed)} failed" + (" (interrupted)" if self.interrupted else "")
+        ]
+        out += [f"FAILED {name}: {err}" for name, err in self.failed.items()]
+        return out
+
+
+# --------------------------------------------------------------------------- preparing DIR
+
+
+def prepare_out_dir(config: ExperimentConfig, out_dir: str | Path) -> Path:
+    """Create ``DIR`` and write ``DIR/experiment.yaml``; refuse a folder that holds another
+    experiment (its ``experiment.yaml`` differs), so that runs of two grids never mix."""
+    out = Path(out_dir)
+    (out / RUNS_DIR).mkdir(parents=True, exist_ok=True)
+    target = out / EXPERIMENT_FILE
+    if target.exists():
+        existing = yaml.safe_load(target.read_text())
+        if existing != config.raw:
+            raise ConfigError(
+                f"{out}: holds a different experiment ({target} differs from {config.source}); "
+                f"use another --out, or delete {target} to reuse the finished runs anyway"
+            )
+    else:
+        atomic_write_text(target, yaml.safe_dump(config.raw, sort_keys=False))
+    return out
+
+
+@contextlib.contextmanager
+def dir_lock(out: Path) -> Iterator[None]:
+    """An exclusive lock on ``DIR/.lock`` for the driver's lifetime (released even on SIGKILL)."""
+    fd = os.open(out / LOCK_FILE, os.O_CREAT | os.O_RDWR, 0o644)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError as exc:
+            raise ConfigError(f"{out}: another 'tlac experiment run' is using this folder") from exc
+        yield
+    finally:
+        os.close(fd)
+
+
+def evaluate_teachers(config: ExperimentConfig, out: Path) -> dict[str, Any]:
+    """Each teacher's own return (``teacher_eval_episodes`` episodes, acting alone), written to
+    ``DIR/teachers.json``: the reference lines of the learning-curve plots (paper, Figures 3-9).
+    Kinds already measured are kept; a teacher that cannot be built is recorded with its error."""
+    path = out / TEACHERS_FILE
+    data: dict[str, Any] = json.loads(path.read_text()) if path.exists() else {}
+    kinds = sorted({t for ts in config.teacher_sets for t in ts.teachers})
+    todo = [k for k in kinds if k not in data or "error" in data[k]]
+    if not todo or config.teacher_eval_episodes == 0:
+        return data
+    from tlac.envs import get_domain
+    from tlac.evaluation import evaluate_policy
+
+    domain = get_domain(config.domain)
+    for kind in todo:
+        env = domain.make_env()
+        try:
+            teacher = domain.make_teacher(kind, env, 0)
+            returns = evaluate_policy(teacher.predict, domain, config.teacher_eval_episodes, seed=20_000)
+            data[kind] = {
+                "mean": float(returns.mean()),
+                "std": float(returns.std()),
+                "episodes": int(len(returns)),
+            }
+        except Exception as exc:  # reference lines are optional: record and go on
+            data[kind] = {"error": f"{type(exc).__name__}: {exc}"}
+        finally:
+            env.close()
+    atomic_write_text(path, json.dumps(data, indent=2))
+    return data
+
+
+# --------------------------------------------------------------------------- worker side
+
+
+def _init_worker(algorithms: dict[str, str]) -> None:
+    """Process initialiser: one torch thread per worker, the driver's algorithm registry
+    (so that algorithms registered at run time by a plugin or a test exist here too), and
+    death with the driver (Linux ``PR_SET_PDEATHSIG``) so that no orphan writes into ``DIR``."""
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    import torch
+
+    torch.set_num_threads(1)
+    from tlac import algorithms as registry
+
+    registry.ALGORITHMS.update(algorithms)
+    if sys.platform.startswith("linux"):
+        with contextlib.suppress(Exception):
+            import ctypes
+
+            ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+            if os.getppid() == 1:  # the driver is already gone
+                os._exit(1)
+
+
+def _one_line(exc: BaseException) -> str:
+    text = f"{type(exc).__name__}: {exc}".strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+def execute_run(name: str, spec_dict: dict[str, Any], folder: str) -> dict[str, Any]:
+    """Train one run into ``folder`` (worker side). Never raises an ``Exception``: a failure
+    writes ``error.txt`` and is returned as ``{"status": "failed", "error": ...}``."""
+    from tlac.run import train_run
+
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / ERROR_FILE).unlink(missing_ok=True)
+    start = time.time()
+    try:
+        result = train_run(RunSpec(**spec_dict), out)
+    except Exception as exc:
+        atomic_write_text(out / ERROR_FILE, traceback.format_exc())
+        return {"name": name, "status": "failed", "error": _one_line(exc), "wall": time.time() - start}
+    return {"name": name, "status": "finished", "result": result, "wall": time.time() - start}
+
+
+def execute_run_packed(name: str, spec_dict: dict[str, Any], algorithms: dict[str, str]) -> dict[str, Any]:
+    """Ray task: train into a temporary folder on this node and return it packed (tar.gz
+    bytes, ``result.json`` excluded and returned as a dict) for the driver to write."""
+    _init_worker(algorithms)
+    with tempfile.TemporaryDirectory(prefix="tlac-run-") as tmp:
+        folder = Path(tmp) / name
+        outcome = execute_run(name, spec_dict, str(folder))
+        buf = io.BytesIO()
+        with tarfile.open(fileobj=buf, mode="w:gz") as tar:
+            for p in sorted(folder.rglob("*")):
+                if p.is_file() and p.name != RESULT_FILE:
+                    tar.add(p, arcname=str(p.relative_to(folder)))
+        outcome["archive"] = buf.getvalue()
+    return outcome
+
+
+def unpack_run(outcome: dict[str, Any], folder: Path) -> None:
+    """Driver side of :func:`execute_run_packed`: replace ``folder`` with the packed files, then
+    write ``result.json`` last and atomically (finished runs only)."""
+    if folder.exists():
+        shutil.rmtree(folder)
+    folder.mkdir(parents=True)
+    with tarfile.open(fileobj=io.BytesIO(outcome["archive"]), mode="r:gz") as tar:
+        tar.extractall(folder, filter="data")
+    if outcome["status"] == "finished":
+        atomic_write_text(folder / RESULT_FILE, json.dumps(outcome["result"], indent=2))
+
+
+# --------------------------------------------------------------------------- live display
+
+
+def latest_step(folder: Path) -> int:
+    """Environment steps a running run has reached: the last ``episodes.csv`` row's timestep
+    (0 if none yet). Reads only the file's tail."""
+    path = folder / "episodes.csv"
+    try:
+        with path.open("rb") as fh:
+            fh.seek(0, os.SEEK_END)
+            fh.seek(max(0, fh.tell() - 256))
+            last = fh.read().decode(errors="replace").strip().splitlines()[-1]
+        return int(float(last.split(",")[0]))
+    except (OSError, ValueError, IndexError):  # no file, header only, or a torn last line
+        return 0
+
+
+def _fmt_time(seconds: float | None) -> str:
+    if seconds is None or seconds != seconds or seconds == float("inf"):
+        return "--:--:--"
+    s = int(seconds)
+    return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}"
+
+
+class Display:
+    """Runs done / running / failed and an estimate of the time left.
+
+    The estimate is steps-based: ``(steps left) / (steps done per second so far)``, counting a
+    running run's progress from its ``episodes.csv`` when its folder is visible (local runner),
+    else only finished runs. On a terminal it redraws one live panel (``rich``); elsewhere it
+    prints one line per finished or failed run.
+    """
+
+    def __init__(self, todo: list[GridRun], skipped: int, out: Path, workers: int, live: bool | None = None):
+        from rich.console import Console
+
+        self.todo = {r.name: r for r in todo}
+        self.total_runs = len(todo) + skipped
+        self.skipped = skipped
+        self.out = out
+        self.workers = workers
+        self.console = Console(stderr=True)
+        self.live_mode = self.console.is_terminal if live is None else live
+        self.running: set[str] = set()
+        self.done: set[str] = set()
+        self.failed: set[str] = set()
+        self.start = time.time()
+        self._live: Any = None
+        self.total_steps = sum(r.spec.steps for r in todo)
+
+    def __enter__(self) -> Display:
+        if self.live_mode:
+            from rich.live import Live
+
+            self._live = Live(self._render(), console=self.console, refresh_per_second=2, transient=False)
+            self._live.__enter__()
+        else:
+            self.console.print(
+                f"{self.total_runs} runs: {self.skipped} already finished, {len(self.todo)} to run "
+                f"with {self.workers} worker(s) -> {self.out}"
+            )
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        if self._live is not None:
+            self._live.update(self._render())
+            self._live.__exit__(*exc)
+
+    def steps_done(self, peek_running: bool) -> int:
+        steps = sum(self.todo[n].spec.steps for n in self.done | self.failed)
+        if peek_running:
+            steps += sum(min(latest_step(run_dir(self.out, n)), self.todo[n].spec.steps) for n in self.running)
+        return steps
+
+    def eta(self, peek_running: bool = True) -> float | None:
+        done = self.steps_done(peek_running)
+        elapsed = time.time() - self.start
+        if done <= 0 or elapsed <= 0:
+            return None
+        return (self.total_steps - done) / (done / elapsed)
+
+    def _render(self) -> Any:
+        from rich.text import Text
+
+        done = len(self.done) + self.skipped
+        text = Text()
+        text.append(f"runs {done}/{self.total_runs} done", style="bold green")
+        text.append(f" | {len(self.running)} running | ")
+        text.append(f"{len(self.failed)} failed", style="bold red" if self.failed else "")
+        text.append(
+            f" | elapsed {_fmt_time(time.time() - self.start)} | time left ~{_fmt_time(self.eta(self.peek))}"
+        )
+        for name in sorted(self.running):
+            step = latest_step(run_dir(self.out, name)) if self.peek else 0
+            text.append(f"\n  running {name}" + (f"  step {step:,}/{self.todo[name].spec.steps:,}" if self.peek else ""))
+        return text
+
+    peek = True
+
+    def refresh(self) -> None:
+        if self._live is not None:
+            self._live.update(self._render())
+
+    def started(self, name: str) -> None:
+        self.running.add(name)
+        self.refresh()
+
+    def finished(self, name: str, wall: float) -> None:
+        self.running.discard(name)
+        self.done.add(name)
+        if not self.live_mode:
+            self.console.print(
+                f"[{len(self.done) + self.skipped}/{self.total_runs}] finished {name} in {wall:.1f}s "
+                f"(time left ~{_fmt_time(self.eta(self.peek))})"
+            )
+        self.refresh()
+
+    def failed_run(self, name: str, error: str) -> None:
+        self.running.discard(name)
+        self.failed.add(name)
+        self.console.print(f"FAILED {name}: {error}")
+        self.refresh()
+
+
+# --------------------------------------------------------------------------- runners
+
+
+def _plan(config: ExperimentConfig, out: Path) -> tuple[list[GridRun], int]:
+    runs = expand_grid(config)
+    todo = [r for r in runs if run_status(run_dir(out, r)) != "finished"]
+    return todo, len(runs) - len(todo)
+
+
+def _registry() -> dict[str, str]:
+    from tlac import algorithms as registry
+
+    return dict(registry.ALGORITHMS)
+
+
+def run_local(
+    config: ExperimentConfig,
+    out_dir: str | Path,
+    workers: int = 1,
+    live: bool | None = None,
+    on_event: Callable[[str, str], None] | None = None,
+) -> GridSummary:
+    """Run every unfinished run of ``config`` in ``workers`` parallel processes on this machine."""
+    if workers < 1:
+        raise ConfigError(f"--workers must be >= 1, got {workers}")
+    out = prepare_out_dir(config, out_dir)
+    with dir_lock(out):
+        evaluate_teachers(config, out)
+        todo, skipped = _plan(config, out)
+        summary = GridSummary(total=len(todo) + skipped, skipped=skipped)
+        if not todo:
+            return summary
+        import multiprocessing
+
+        ctx = multiprocessing.get_context("spawn")
+        pool = ProcessPoolExecutor(
+            max_workers=min(workers, len(todo)), mp_context=ctx, initializer=_init_worker, initargs=(_registry(),)
+        )
+        futures: dict[Future[dict[str, Any]], GridRun] = {}
+        queue = list(todo)
+        try:
+            with Display(todo, skipped, out, workers, live=live) as display:
+
+                def submit_more() -> None:
+                    # keep exactly `workers` runs in flight, so "running" is what really runs
+                    while queue and len(futures) < workers:
+                        r = queue.pop(0)
+                        futures[pool.submit(execute_run, r.name, asdict(r.spec), str(run_dir(out, r)))] = r
+                        display.started(r.name)
+
+                submit_more()
+                while futures:
+                    done, _ = wait(list(futures), timeout=1.0, return_when=FIRST_COMPLETED)
+                    for fut in done:
+                        r = futures.pop(fut)
+                        try:
+                            outcome = fut.result()
+                        except Exception as exc:  # the worker process died (e.g. out of memory)
+                            outcome = {"status": "failed", "error": f"worker died: {_one_line(exc)}", "wall": 0.0}
+                            folder = run_dir(out, r)
+                            folder.mkdir(parents=True, exist_ok=True)
+                            atomic_write_text(folder / ERROR_FILE, outcome["error"] + "\n")
+                        _record(summary, display, r.name, outcome, on_event)
+                    submit_more()
+                    display.refresh()
+        except KeyboardInterrupt:
+            summary.interrupted = True
+        finally:
+            pool.shutdown(wait=not summary.interrupted, cancel_futures=True)
+    return summary
+
+
+def _record(
+    summary: GridSummary,
+    display: Display,
+    name: str,
+    outcome: dict[str, Any],
+    on_event: Callable[[str, str], None] | None,
+) -> None:
+    if outcome["status"] == "finished":
+        summary.finished.append(name)
+        display.finished(name, outcome.get("wall", 0.0))
+    else:
+        summary.failed[name] = outcome["error"]
+        display.failed_run(name, outcome["error"])
+    if on_event is not None:
+        on_event(outcome["status"], name)
+
+
+def run_ray(
+    config: ExperimentConfig,
+    out_dir: str | Path,
+    address: str | None = None,
+    workers: int | None = None,
+    live: bool | None = None,
+    ray_init_kwargs: dict[str, Any] | None = None,
+) -> GridSummary:
+    """Run every unfinished run of ``config`` as one Ray task each.
+
+    ``address=None`` starts a local Ray instance with ``workers`` CPUs; otherwise
+    ``ray.init(address=...)`` joins a running cluster (``auto``, or ``HEAD:6379``) and
+    ``workers``, if given, caps the runs in flight. The driver writes every run folder into
+    ``DIR`` itself (workers return them packed), so ``DIR`` need only exist on the driver.
+    """
+    try:
+        import ray
+    except ImportError as exc:  # pragma: no cover - ray is an optional dependency
+        raise ConfigError("--backend ray needs Ray: pip install 'tlac[ray]'") from exc
+    out = prepare_out_dir(config, out_dir)
+    with dir_lock(out):
+        evaluate_teachers(config, out)
+        todo, skipped = _plan(config, out)
+        summary = GridSummary(total=len(todo) + skipped, skipped=skipped)
+        if not todo:
+            return summary
+        kwargs: dict[str, Any] = {"include_dashboard": False, "ignore_reinit_error": True, "log_to_driver": False}
+        if address is None:
+            kwargs["num_cpus"] = workers or os.cpu_count() or 1
+        else:
+            kwargs["address"] = address
+        kwargs.update(ray_init_kwargs or {})
+        started_here = not ray.is_initialized()
+        ray.init(**kwargs)
+        # max_retries: Ray retries a task only when its worker or node dies, not on exceptions
+        task = ray.remote(num_cpus=1, max_retries=2)(execute_run_packed)
+        in_flight = workers if workers else len(todo)
+        registry = _registry()
+        refs: dict[Any, GridRun] = {}
+        queue = list(todo)
+        try:
+            with Display(todo, skipped, out, in_flight, live=live) as display:
+                display.peek = False  # the folders appear only when a task returns
+                while queue or refs:
+                    while queue and len(refs) < in_flight:
+                        r = queue.pop(0)
+                        refs[task.remote(r.name, asdict(r.spec), registry)] = r
+                        display.started(r.name)
+                    ready, _ = ray.wait(list(refs), num_returns=1, timeout=1.0)
+                    for ref in ready:
+                        r = refs.pop(ref)
+                        try:
+                            outcome = ray.get(ref)
+                            unpack_run(outcome, run_dir(out, r))
+                        except Exception as exc:  # task lost (node died, ...) or unpacking failed
+                            outcome = {"status": "failed", "error": f"ray task failed: {_one_line(exc)}"}
+                            folder = run_dir(out, r)
+                            folder.mkdir(parents=True, exist_ok=True)
+                            atomic_write_text(folder / ERROR_FILE, traceback.format_exc())
+                        _record(summary, display, r.name, outcome, None)
+                    display.refresh()
+        except KeyboardInterrupt:
+            summary.interrupted = True
+            for ref in refs:
+                with contextlib.suppress(Exception):
+                    ray.cancel(ref, force=True)
+        finally:
+            if started_here:
+                ray.shutdown()
+    return summary
+
+
+def grid_status(config: ExperimentConfig, out_dir: str | Path) -> list[tuple[GridRun, str]]:
+    """Each run of the grid with its status (``finished``/``failed``/``partial``/``missing``)."""
+    return [(r, run_status(run_dir(out_dir, r))) for r in expand_grid(config)]
