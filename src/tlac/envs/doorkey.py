@@ -108,14 +108,36 @@ class FirstActions(gym.ActionWrapper):
         return int(action)
 
 
+class FullyObservedDoorKey(DoorKeyEnv):
+    """DoorKey whose observation is the full grid, built directly.
+
+    MiniGrid's ``step`` always computes the agent's 7x7 egocentric view (slicing, rotating and
+    a visibility pass) and :class:`FullyObsWrapper` then throws it away and encodes the
+    whole grid. Producing the full encoding in ``gen_obs`` gives the same observation as
+    ``FullyObsWrapper`` (checked in the tests) at about a quarter of the cost per step.
+    """
+
+    def gen_obs(self) -> dict[str, Any]:
+        full = self.grid.encode()
+        x, y = self.agent_pos
+        full[x, y] = (AGENT, COLOR_TO_IDX["red"], self.agent_dir)
+        return {"image": full, "direction": self.agent_dir, "mission": self.mission}
+
+
 def make_doorkey_env(
     render_mode: str | None = None, size: int = GRID_SIZE, max_steps: int | None = None
 ) -> gym.Env:
     """Build one DoorKey env (default: the paper's 7x7) with the observation and action
     spaces described in the module docstring. ``max_steps=None`` keeps MiniGrid's default,
     ``10 * size**2``."""
-    base = DoorKeyEnv(size=size, max_steps=max_steps, render_mode=render_mode)
-    return FirstActions(FlatFullGrid(FullyObsWrapper(base)), N_ACTIONS)
+    base = FullyObservedDoorKey(size=size, max_steps=max_steps, render_mode=render_mode)
+    return FirstActions(FlatFullGrid(base), N_ACTIONS)
+
+
+def make_reference_doorkey_env(size: int = GRID_SIZE) -> gym.Env:
+    """The same environment through MiniGrid's own :class:`FullyObsWrapper` (slower); kept
+    to check that :class:`FullyObservedDoorKey` observes exactly the same."""
+    return FirstActions(FlatFullGrid(FullyObsWrapper(DoorKeyEnv(size=size))), N_ACTIONS)
 
 
 def obs_to_grid(obs_batch: np.ndarray) -> np.ndarray:

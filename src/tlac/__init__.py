@@ -1,0 +1,28 @@
+"""tlac: reinforcement learning with advice from several teachers.
+
+The Two-Level Actor-Critic of "Two-Level Actor-Critic Using Multiple Teachers" (TMLR 2023):
+a high-level actor picks, in every state, which teacher to follow (or the agent itself); a
+low-level actor learns the control policy; both share one critic.
+
+>>> from tlac import TLAC
+>>> model = TLAC("doorkey", teachers=["optimal", "random", "random"])  # doctest: +SKIP
+>>> model.learn(50_000)                                                # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+__version__ = "0.1.0"
+__all__ = ["TLAC", "TLACConfig", "__version__"]
+
+if TYPE_CHECKING:
+    from tlac.algorithms.two_level import TLAC, TLACConfig
+
+
+def __getattr__(name: str) -> Any:  # lazy: `import tlac` stays cheap for the CLI
+    if name in ("TLAC", "TLACConfig"):
+        from tlac.algorithms import two_level
+
+        return getattr(two_level, name)
+    raise AttributeError(f"module 'tlac' has no attribute {name!r}")

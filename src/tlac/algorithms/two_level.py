@@ -1,0 +1,636 @@
+"""TL-AC: the Two-Level Actor-Critic using multiple teachers (paper, section 3, Algorithm 1).
+
+A high-level actor pi_high(e|s) picks, in every state, which of the N teachers or the agent
+itself acts; a low-level actor pi_low(a|s) is the student's control policy; ONE critic V(s) is
+shared by both levels (Eq. 5-6), so both are trained with the same advantage (Eq. 3, 7).
+
+Reading guide: :class:`TLACConfig` (every setting of the paper's Tables 5, 8 and 10),
+:meth:`TLAC.collect` (Algorithm 1, lines 11-23), :meth:`TLAC.update` (lines 5-9, with the
+clipped surrogate the paper's tables imply), :meth:`TLAC.learn` (the outer loop).
+
+>>> from tlac import TLAC
+>>> model = TLAC("doorkey", teachers=["optimal", "random"], seed=0, n_steps=8, batch_size=8)
+>>> model = model.learn(64, progress_bar=False)
+>>> model.num_timesteps
+64
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch
+from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
+from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
+from torch import nn
+
+from tlac.algorithms import losses
+from tlac.algorithms.nets import (
+    CRITIC,
+    HIGH,
+    LOW,
+    StackedMLP,
+    categorical_entropy,
+    gaussian_entropy,
+    gaussian_log_prob,
+    gsde_log_std,
+    sample_categorical,
+)
+from tlac.algorithms.rollout import Rollout, compute_gae
+from tlac.errors import ConfigError, UnknownNameError
+from tlac.presets import make_schedule, validate_schedule
+from tlac.recording import EpisodeRecorder, Recorder, find_episode_recorder
+from tlac.selectors import LearnedSelector, RandomSelector, UCB1Selector
+from tlac.teachers.base import Teacher, as_teacher, check_actions, unique_names
+
+Schedule = float | dict
+
+
+@dataclass
+class TLACConfig:
+    """TL-AC's settings. Defaults are the paper's DoorKey preset (Table 5)."""
+
+    n_steps: int = 16
+    """Steps collected per environment before each update (Algorithm 1's minibatch M)."""
+    batch_size: int = 16
+    """Minibatch size of the gradient steps; at most n_steps * n_envs."""
+    n_epochs: int = 5
+    """Passes over each rollout (Algorithm 1, line 5)."""
+    learning_rate: Schedule = 7e-4
+    """Number or {linear: [start, end]}."""
+    clip_range: Schedule = 0.2
+    """PPO clip range of both levels' ratios; number or {linear: [start, end]}."""
+    target_kl: Schedule | None = 0.02
+    """Stop the epochs when the larger of the two levels' approximate KL exceeds 1.5x this."""
+    ent_coef: float = 0.0
+    """Entropy bonus of both levels, unless ent_coef_high / ent_coef_low are given."""
+    ent_coef_high: float | None = None
+    ent_coef_low: float | None = None
+    vf_coef: float = 0.5
+    max_grad_norm: float = 0.5
+    gamma: float = 0.99
+    gae_lambda: float = 0.85
+    """GAE(lambda); 0 gives the paper's one-step advantage (Eq. 2) exactly."""
+    normalize_advantage: bool = True
+    optimizer: str = "rmsprop_tf"
+    """rmsprop_tf (SB3's RMSpropTFLike, the paper's) or adam."""
+    optimizer_eps: float = 1e-5
+    rmsprop_alpha: float = 0.99
+    use_sde: bool = False
+    """Generalized state-dependent exploration for Box actions (Tables 8, 10)."""
+    sde_sample_freq: int = -1
+    """Resample the gSDE noise every this many steps (-1: once per rollout)."""
+    log_std_init: float = 0.0
+    """Initial log std of the low level's Gaussian (Box actions)."""
+    ortho_init_high: bool = True
+    ortho_init_low: bool = True
+    ortho_init_critic: bool | None = None
+    """None: the same as ortho_init_low (the critic estimates V_pi_low, Eq. 1)."""
+    net_arch_high: list[int] = field(default_factory=lambda: [64, 64])
+    net_arch_low: list[int] = field(default_factory=lambda: [64, 64])
+    net_arch_critic: list[int] = field(default_factory=lambda: [64, 64])
+    low_level_data: str = "all"
+    """Which transitions train the low level: all (the paper) or agent (only where it acted)."""
+    selector: str = "learned"
+    """High level: learned (TL-AC), random or ucb1 (per episode) -- the Figure 11 ablations."""
+    ucb_c: float = 1.0
+    """UCB1 exploration constant (scaled by the observed return range)."""
+    n_envs: int = 1
+    """Parallel environments, used only when TLAC builds the environment from a domain name."""
+
+    @classmethod
+    def from_settings(cls, settings: dict[str, Any]) -> TLACConfig:
+        """Build and validate a config; unknown keys or bad values raise ConfigError."""
+        names = [f.name for f in dataclasses.fields(cls)]
+        for key in settings:
+            if key not in names:
+                raise ConfigError(f"unknown TL-AC setting {key!r}; expected one of: {', '.join(names)}")
+        cfg = cls(**settings)
+        cfg.validate()
+        return cfg
+
+    def validate(self) -> None:
+        def positive_int(name: str) -> None:
+            v = getattr(self, name)
+            if not isinstance(v, int) or isinstance(v, bool) or v <= 0:
+                raise ConfigError(f"TL-AC setting {name} must be a positive integer, got {v!r}")
+
+        for name in ("n_steps", "batch_size", "n_epochs", "n_envs"):
+            positive_int(name)
+        for name in ("learning_rate", "clip_range"):
+            validate_schedule(name, getattr(self, name))
+        if self.target_kl is not None:
+            validate_schedule("target_kl", self.target_kl)
+        for name in ("gamma", "gae_lambda"):
+            v = getattr(self, name)
+            if not 0.0 <= v <= 1.0:
+                raise ConfigError(f"TL-AC setting {name} must be in [0, 1], got {v!r}")
+        for name in ("vf_coef", "max_grad_norm", "ent_coef", "optimizer_eps"):
+            if getattr(self, name) < 0:
+                raise ConfigError(f"TL-AC setting {name} must be >= 0, got {getattr(self, name)!r}")
+        if self.optimizer not in ("rmsprop_tf", "adam"):
+            raise UnknownNameError("optimizer", self.optimizer, ["rmsprop_tf", "adam"])
+        if self.low_level_data not in ("all", "agent"):
+            raise UnknownNameError("low_level_data", self.low_level_data, ["all", "agent"])
+        if self.selector not in ("learned", "random", "ucb1"):
+            raise UnknownNameError("selector", self.selector, ["learned", "random", "ucb1"])
+        depths = {len(self.net_arch_high), len(self.net_arch_low), len(self.net_arch_critic)}
+        if len(depths) != 1 or 0 in depths:
+            raise ConfigError(
+                "net_arch_high, net_arch_low and net_arch_critic must have the same, non-zero number "
+                f"of layers (widths may differ), got {self.net_arch_high}, {self.net_arch_low}, {self.net_arch_critic}"
+            )
+
+
+def _as_vec_env(env: Any, n_envs: int, seed: int) -> tuple[VecEnv, Any]:
+    """Accept a domain name, a Gymnasium env or an SB3 VecEnv; returns (vec_env, domain|None)."""
+    if isinstance(env, str):
+        from tlac.envs import get_domain
+        from tlac.run import make_vec_env
+
+        domain = get_domain(env)
+        return make_vec_env(domain, n_envs, seed, None), domain
+    if isinstance(env, VecEnv):
+        venv = env
+    elif isinstance(env, gym.Env):
+        venv = DummyVecEnv([lambda: env])
+        venv.seed(seed)
+    else:
+        raise ConfigError(f"env must be a domain name, a gymnasium.Env or an SB3 VecEnv, got {env!r}")
+    if find_episode_recorder(venv) is None:
+        venv = EpisodeRecorder(venv)
+    return venv, None
+
+
+class TLAC:
+    """Two-Level Actor-Critic. ``TLAC(env, teachers, **settings).learn(steps)``.
+
+    ``env``: a domain name (``"doorkey"``), a Gymnasium env or an SB3 ``VecEnv``.
+    ``teachers``: objects with a batched ``predict``, SB3 models, plain functions of one
+    observation, or -- when ``env`` is a domain name -- that domain's teacher names.
+    ``predict`` uses the low-level policy ALONE: the student a user deploys.
+    """
+
+    def __init__(
+        self,
+        env: Any,
+        teachers: Sequence[Any] = (),
+        seed: int = 0,
+        recorder: Recorder | None = None,
+        **settings: Any,
+    ):
+        self.config = TLACConfig.from_settings(settings)
+        self.seed = seed
+        torch.manual_seed(seed)
+        self.env, domain = _as_vec_env(env, self.config.n_envs, seed)
+        self.n_envs = self.env.num_envs
+        if self.config.batch_size > self.config.n_steps * self.n_envs:
+            raise ConfigError(
+                f"batch_size {self.config.batch_size} exceeds the rollout size n_steps * n_envs = "
+                f"{self.config.n_steps * self.n_envs}"
+            )
+        self.teachers = self._make_teachers(teachers, domain, seed)
+        self.recorder = recorder
+        self._build(self.env.observation_space, self.env.action_space, [t.name for t in self.teachers])
+        self.num_timesteps = 0
+        self._last_obs: np.ndarray | None = None
+
+    # ----------------------------------------------------------------- construction
+    def _make_teachers(self, teachers: Sequence[Any], domain: Any, seed: int) -> list[Teacher]:
+        if teachers and all(isinstance(t, str) for t in teachers):
+            if domain is None:
+                raise ConfigError("teacher names need env to be a domain name, e.g. TLAC('doorkey', ['optimal'])")
+            from tlac.envs import make_teachers
+
+            return make_teachers(domain, list(teachers), domain.make_env(), seed)
+        names = unique_names([getattr(t, "name", None) or f"teacher{i}" for i, t in enumerate(teachers)])
+        return [as_teacher(t, self.env.action_space, n) for t, n in zip(teachers, names, strict=True)]
+
+    def _build(self, obs_space: gym.Space, action_space: gym.Space, teacher_names: list[str]) -> None:
+        cfg = self.config
+        if not isinstance(obs_space, gym.spaces.Box):
+            raise ConfigError(f"TL-AC needs a Box observation space, got {obs_space}")
+        self.observation_space, self.action_space = obs_space, action_space
+        self.teacher_names = list(teacher_names)
+        self.n_teachers = len(teacher_names)
+        self.n_choices = self.n_teachers + 1  # E = E_0 U {Agent}; the agent is the last index
+        self.obs_dim = int(np.prod(obs_space.shape))
+        self.discrete = isinstance(action_space, gym.spaces.Discrete)
+        if self.discrete:
+            low_out = int(action_space.n)
+        elif isinstance(action_space, gym.spaces.Box):
+            low_out = int(np.prod(action_space.shape))
+            self._act_low = torch.as_tensor(action_space.low, dtype=torch.float32)
+            self._act_high = torch.as_tensor(action_space.high, dtype=torch.float32)
+        else:
+            raise ConfigError(f"TL-AC supports Discrete and Box action spaces, got {action_space}")
+        if cfg.use_sde and self.discrete:
+            raise ConfigError("use_sde applies to Box action spaces only")
+        ortho_critic = cfg.ortho_init_low if cfg.ortho_init_critic is None else cfg.ortho_init_critic
+        self.net = StackedMLP(
+            self.obs_dim,
+            [list(cfg.net_arch_high), list(cfg.net_arch_low), list(cfg.net_arch_critic)],
+            [self.n_choices, low_out, 1],
+            ortho_init=[cfg.ortho_init_high, cfg.ortho_init_low, ortho_critic],
+            out_gains=[0.01, 0.01, 1.0],  # SB3's gains for action and value heads
+        )
+        params: list[nn.Parameter] = list(self.net.parameters())
+        self.log_std: nn.Parameter | None = None
+        if not self.discrete:
+            shape = (cfg.net_arch_low[-1], low_out) if cfg.use_sde else (low_out,)
+            self.log_std = nn.Parameter(torch.full(shape, float(cfg.log_std_init)))
+            params.append(self.log_std)
+        self.params = params
+        lr0 = make_schedule(cfg.learning_rate, "learning_rate")(1.0)
+        if cfg.optimizer == "adam":
+            self.optimizer: torch.optim.Optimizer = torch.optim.Adam(params, lr=lr0, eps=cfg.optimizer_eps, foreach=True)
+        else:
+            self.optimizer = RMSpropTFLike(params, lr=lr0, alpha=cfg.rmsprop_alpha, eps=cfg.optimizer_eps)
+        self.lr_schedule = make_schedule(cfg.learning_rate, "learning_rate")
+        self.clip_schedule = make_schedule(cfg.clip_range, "clip_range")
+        self.kl_schedule = None if cfg.target_kl is None else make_schedule(cfg.target_kl, "target_kl")
+        self.generator = torch.Generator().manual_seed(self.seed)
+        if cfg.selector == "learned":
+            self.selector: Any = LearnedSelector(self.generator)
+        elif cfg.selector == "random":
+            self.selector = RandomSelector(self.n_choices, self.seed)
+        else:
+            self.selector = UCB1Selector(self.n_choices, getattr(self, "n_envs", 1), self.seed, cfg.ucb_c)
+        self.train_high = self.selector.trains_high_level and self.n_choices > 1
+        self._sde_noise: torch.Tensor | None = None
+        self._ent_high = cfg.ent_coef if cfg.ent_coef_high is None else cfg.ent_coef_high
+        self._ent_low = cfg.ent_coef if cfg.ent_coef_low is None else cfg.ent_coef_low
+
+    # ----------------------------------------------------------------- the policies
+    def _heads(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """(high logits, low output (logits or Gaussian mean), value, low-level last hidden)."""
+        out, hidden = self.net(obs)
+        return (
+            out[HIGH, :, : self.n_choices],
+            out[LOW, :, : self.net.out_dims[LOW]],
+            out[CRITIC, :, 0],
+            hidden[LOW, :, : self.config.net_arch_low[-1]],
+        )
+
+    def _low_log_std(self, latent: torch.Tensor) -> torch.Tensor:
+        assert self.log_std is not None
+        if self.config.use_sde:
+            return gsde_log_std(latent, self.log_std)
+        return self.log_std.expand(latent.shape[0], -1)
+
+    def _low_log_prob_entropy(
+        self, low_out: torch.Tensor, latent: torch.Tensor, actions: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        if self.discrete:
+            log_probs = torch.log_softmax(low_out, dim=-1)
+            return log_probs.gather(1, actions.view(-1, 1)).squeeze(1), categorical_entropy(log_probs)
+        log_std = self._low_log_std(latent)
+        return gaussian_log_prob(actions, low_out, log_std), gaussian_entropy(log_std)
+
+    def _sample_low(self, low_out: torch.Tensor, latent: torch.Tensor) -> torch.Tensor:
+        if self.discrete:
+            return sample_categorical(low_out, self.generator)
+        if self.config.use_sde:
+            if self._sde_noise is None:
+                self._resample_sde_noise()
+            assert self._sde_noise is not None
+            # one exploration matrix per environment: noise = latent @ eps_matrix
+            return low_out + torch.bmm(latent.unsqueeze(1), self._sde_noise[: latent.shape[0]]).squeeze(1)
+        assert self.log_std is not None
+        return low_out + torch.randn(low_out.shape, generator=self.generator) * self.log_std.exp()
+
+    def _resample_sde_noise(self) -> None:
+        assert self.log_std is not None
+        std = self.log_std.detach().exp()
+        self._sde_noise = torch.randn((self.n_envs, *std.shape), generator=self.generator) * std
+
+    def _to_env_actions(self, actions: torch.Tensor) -> np.ndarray:
+        if self.discrete:
+            return actions.numpy()
+        # as SB3 does for unsquashed Gaussians: the stored action keeps its sampled value,
+        # the environment receives it clipped to the box
+        return torch.maximum(torch.minimum(actions, self._act_high), self._act_low).numpy()
+
+    def _obs_tensor(self, obs: np.ndarray) -> torch.Tensor:
+        return torch.as_tensor(np.asarray(obs), dtype=torch.float32).reshape(-1, self.obs_dim)
+
+    def predict(self, obs: np.ndarray, state: Any = None, episode_start: Any = None, deterministic: bool = True) -> tuple[np.ndarray, None]:
+        """Actions of the low-level policy alone (no teacher), SB3-style ``(actions, None)``."""
+        obs = np.asarray(obs)
+        single = obs.shape == self.observation_space.shape
+        with torch.inference_mode():
+            _, low_out, _, latent = self._heads(self._obs_tensor(obs))
+            if self.discrete:
+                actions = low_out.argmax(-1) if deterministic else sample_categorical(low_out, self.generator)
+            elif deterministic:
+                actions = low_out
+            else:
+                actions = low_out + torch.randn(low_out.shape, generator=self.generator) * self._low_log_std(latent).exp()
+            env_actions = self._to_env_actions(actions)
+        return (env_actions[0] if single else env_actions), None
+
+    def predict_with_teachers(self, obs: np.ndarray, deterministic: bool = False) -> np.ndarray:
+        """The training-time behaviour: the high level picks a teacher or the agent per row.
+        With ``deterministic`` the high level takes its most likely choice (learned selector)."""
+        if not self.teachers:
+            return self.predict(obs, deterministic=deterministic)[0]
+        obs = np.asarray(obs).reshape(-1, *self.observation_space.shape)
+        with torch.inference_mode():
+            high_logits, low_out, _, latent = self._heads(self._obs_tensor(obs))
+            if deterministic and self.selector.name == "learned":
+                choices = high_logits.argmax(-1).numpy()
+            elif self.selector.name == "ucb1":  # best arm by mean return so far
+                counts = np.maximum(self.selector.counts, 1)
+                choices = np.full(len(obs), int(np.argmax(self.selector.sums / counts)))
+            elif self.selector.name == "random":
+                choices = self.selector.rng.integers(self.n_choices, size=len(obs))
+            else:
+                choices = sample_categorical(high_logits, self.generator).numpy()
+            actions = low_out.argmax(-1) if (self.discrete and deterministic) else (
+                low_out if deterministic else self._sample_low(low_out, latent)
+            )
+            actions = self._apply_teachers(choices, obs, actions.clone())
+            return self._to_env_actions(actions)
+
+    def _apply_teachers(self, choices: np.ndarray, obs: np.ndarray, actions: torch.Tensor) -> torch.Tensor:
+        """Replace the agent's action by the chosen teacher's in every row (Algorithm 1, line 18).
+        A teacher is queried only for the rows where it was chosen."""
+        for k in np.unique(choices):
+            if k >= self.n_teachers:
+                continue
+            rows = np.flatnonzero(choices == k)
+            teacher = self.teachers[k]
+            advice = check_actions(teacher.name, teacher.predict(obs[rows]), self.action_space, len(rows))
+            actions[torch.as_tensor(rows)] = torch.as_tensor(advice, dtype=actions.dtype)
+        return actions
+
+    # ----------------------------------------------------------------- Algorithm 1
+    def collect(self) -> Rollout:
+        """Collect ``n_steps`` transitions per environment (Algorithm 1, lines 11-23)."""
+        cfg = self.config
+        T, E = cfg.n_steps, self.n_envs
+        ro = Rollout.empty(T, E, self.obs_dim, self.action_space.shape, self.discrete)
+        if self._last_obs is None:
+            self._last_obs = self.env.reset()
+            self._episode_starts = np.ones(E, dtype=bool)
+            self._episode_returns = np.zeros(E)
+        with torch.inference_mode():
+            if cfg.use_sde:
+                self._resample_sde_noise()
+            for t in range(T):
+                if cfg.use_sde and cfg.sde_sample_freq > 0 and t > 0 and t % cfg.sde_sample_freq == 0:
+                    self._resample_sde_noise()
+                obs_np = self._last_obs
+                obs = self._obs_tensor(obs_np)
+                high_logits, low_out, values, latent = self._heads(obs)
+                choices = self.selector.select(high_logits, self._episode_starts)  # line 14
+                actions = self._sample_low(low_out, latent)  # line 16 (used where the agent acts)
+                actions = self._apply_teachers(choices, obs_np, actions)  # line 18
+                choices_t = torch.as_tensor(choices, dtype=torch.int64)
+                log_prob_low, _ = self._low_log_prob_entropy(low_out, latent, actions)
+                log_prob_high = torch.log_softmax(high_logits, -1).gather(1, choices_t.view(-1, 1)).squeeze(1)
+
+                new_obs, rewards, dones, infos = self.env.step(self._to_env_actions(actions))  # line 19
+                self.num_timesteps += E
+                rewards = np.asarray(rewards, dtype=np.float32).copy()
+                self._episode_returns += rewards
+                for i in np.flatnonzero(dones):
+                    final = infos[i].get("terminal_observation")
+                    if infos[i].get("TimeLimit.truncated", False) and final is not None:
+                        # time-limit truncation is not termination: bootstrap from V(final obs)
+                        rewards[i] += cfg.gamma * float(self._heads(self._obs_tensor(final))[2][0])
+                    self.selector.episode_end(int(i), float(self._episode_returns[i]))
+                    self._episode_returns[i] = 0.0
+
+                ro.obs[t] = obs
+                ro.actions[t] = actions
+                ro.choices[t] = choices_t
+                ro.rewards[t] = torch.as_tensor(rewards)
+                ro.dones[t] = torch.as_tensor(dones, dtype=torch.float32)
+                ro.values[t] = values
+                ro.log_prob_low[t] = log_prob_low
+                ro.log_prob_high[t] = log_prob_high
+                self._last_obs = new_obs
+                self._episode_starts = np.asarray(dones, dtype=bool)
+            last_values = self._heads(self._obs_tensor(self._last_obs))[2]
+        adv, ret = compute_gae(
+            ro.rewards.numpy(), ro.values.numpy(), ro.dones.numpy(), last_values.numpy(), cfg.gamma, cfg.gae_lambda
+        )
+        ro.advantages, ro.returns = torch.from_numpy(adv), torch.from_numpy(ret)
+        if self.recorder is not None:
+            self.recorder.record_selections(self.num_timesteps, ro.choices.numpy(), ro.obs.numpy())
+        return ro
+
+    def update(self, ro: Rollout, progress_remaining: float) -> dict[str, float]:
+        """Epochs of minibatch updates of both levels and the shared critic (lines 5-9)."""
+        cfg = self.config
+        clip = self.clip_schedule(progress_remaining)
+        lr = self.lr_schedule(progress_remaining)
+        target_kl = None if self.kl_schedule is None else self.kl_schedule(progress_remaining)
+        for group in self.optimizer.param_groups:
+            group["lr"] = lr
+        data = ro.flat()
+        n = data["obs"].shape[0]
+        agent_index = self.n_teachers
+        stats: dict[str, list[torch.Tensor]] = {k: [] for k in ("pl_low", "pl_high", "vf", "ent_low", "ent_high", "kl")}
+        stopped_early = False
+        for _epoch in range(cfg.n_epochs):
+            perm = torch.randperm(n, generator=self.generator)
+            for start in range(0, n, cfg.batch_size):
+                idx = perm[start : start + cfg.batch_size]
+                obs, actions, choices = data["obs"][idx], data["actions"][idx], data["choices"][idx]
+                adv = data["advantages"][idx]
+                if cfg.normalize_advantage:
+                    adv = losses.normalize(adv)
+                high_logits, low_out, values, latent = self._heads(obs)
+                # low level, Eq. 3: log pi_low(a|s) A(s, a) on the executed actions (clipped)
+                lp_low, ent_low = self._low_log_prob_entropy(low_out, latent, actions)
+                old_low = data["log_prob_low"][idx]
+                if cfg.low_level_data == "agent":
+                    mask = choices == agent_index
+                    loss_low = losses.masked_clipped_policy_loss(lp_low, old_low, adv, clip, mask)
+                    kl_low = losses.approx_kl(lp_low[mask], old_low[mask]) if mask.any() else torch.zeros(())
+                else:
+                    loss_low = losses.clipped_policy_loss(lp_low, old_low, adv, clip)
+                    kl_low = losses.approx_kl(lp_low, old_low)
+                loss = loss_low - self._ent_low * ent_low.mean()
+                kl = kl_low.detach()
+                # high level, Eq. 7: log pi_high(e|s) A(s, a) with the SAME advantage (Eq. 6)
+                if self.train_high:
+                    log_probs_high = torch.log_softmax(high_logits, -1)
+                    lp_high = log_probs_high.gather(1, choices.view(-1, 1)).squeeze(1)
+                    old_high = data["log_prob_high"][idx]
+                    loss_high = losses.clipped_policy_loss(lp_high, old_high, adv, clip)
+                    ent_high = categorical_entropy(log_probs_high)
+                    loss = loss + loss_high - self._ent_high * ent_high.mean()
+                    kl = torch.maximum(kl, losses.approx_kl(lp_high, old_high).detach())
+                    stats["pl_high"].append(loss_high.detach())
+                    stats["ent_high"].append(ent_high.mean().detach())
+                # the one shared critic (Eq. 5)
+                vf_loss = losses.value_loss(values, data["returns"][idx])
+                loss = loss + cfg.vf_coef * vf_loss
+                stats["pl_low"].append(loss_low.detach())
+                stats["ent_low"].append(ent_low.mean().detach())
+                stats["vf"].append(vf_loss.detach())
+                stats["kl"].append(kl)
+                if target_kl is not None and float(kl) > 1.5 * target_kl:
+                    stopped_early = True  # SB3's rule: stop before a step that moves too far
+                    break
+                self.optimizer.zero_grad(set_to_none=True)
+                loss.backward()
+                nn.utils.clip_grad_norm_(self.params, cfg.max_grad_norm, foreach=True)
+                self.optimizer.step()
+            if stopped_early:
+                break
+        out = {f"train/{k}": float(torch.stack(v).mean()) for k, v in stats.items() if v}
+        out.update({"train/learning_rate": lr, "train/clip_range": clip, "train/stopped_early": float(stopped_early)})
+        return out
+
+    def learn(
+        self,
+        total_timesteps: int,
+        callback: Callable[[TLAC], bool | None] | None = None,
+        progress_bar: bool = True,
+    ) -> TLAC:
+        """Train for ``total_timesteps`` more environment steps (over all environments).
+
+        ``callback(model)`` runs after every collect/update iteration; returning ``False`` stops.
+        """
+        if not isinstance(total_timesteps, int | np.integer) or isinstance(total_timesteps, bool) or total_timesteps <= 0:
+            raise ConfigError(f"total_timesteps must be a positive integer, got {total_timesteps!r}")
+        if self.env is None:
+            raise ConfigError("this model has no environment: pass env= to TLAC.load to train it")
+        if len(self.teachers) != self.n_teachers:
+            raise ConfigError(
+                f"this model was trained with {self.n_teachers} teachers ({', '.join(self.teacher_names)}); "
+                "pass the same number as teachers= to TLAC.load to train it further"
+            )
+        start_steps = self.num_timesteps
+        end_steps = start_steps + int(total_timesteps)
+        episodes = find_episode_recorder(self.env)
+        bar = None
+        if progress_bar:
+            from tqdm.auto import tqdm
+
+            bar = tqdm(total=int(total_timesteps), unit="step", dynamic_ncols=True, desc="TL-AC")
+        usage = np.zeros(self.n_choices)
+        window: dict[str, list[float]] = {}
+        next_log = self._next_log_step(start_steps)
+        t0 = time.time()
+        last_bar = 0.0
+        while self.num_timesteps < end_steps:
+            ro = self.collect()
+            usage += np.bincount(ro.choices.reshape(-1).numpy(), minlength=self.n_choices)
+            progress_remaining = 1.0 - (self.num_timesteps - start_steps) / total_timesteps
+            stats = self.update(ro, max(progress_remaining, 0.0))
+            for k, v in stats.items():
+                window.setdefault(k, []).append(v)
+            if self.recorder is not None and self.num_timesteps >= next_log:
+                metrics = {k: float(np.mean(v)) for k, v in window.items()}
+                metrics["time/fps"] = (self.num_timesteps - start_steps) / max(time.time() - t0, 1e-9)
+                metrics["time/total_timesteps"] = self.num_timesteps
+                if episodes is not None and episodes.episode_returns:
+                    metrics["rollout/ep_rew_mean"] = episodes.mean_recent_return()
+                self.recorder.record_metrics(self.num_timesteps, metrics)
+                window.clear()
+                next_log = self._next_log_step(self.num_timesteps)
+            if bar is not None:
+                bar.update(min(self.num_timesteps, end_steps) - bar.n - start_steps)
+                now = time.time()
+                if now - last_bar > 0.5:
+                    last_bar = now
+                    bar.set_postfix_str(self._bar_text(episodes, usage), refresh=False)
+                    usage[:] = 0
+            if callback is not None and callback(self) is False:
+                break
+        if bar is not None:
+            bar.set_postfix_str(self._bar_text(episodes, usage), refresh=False)
+            bar.close()
+        return self
+
+    def _next_log_step(self, now: int) -> int:
+        interval = self.recorder.log_interval if self.recorder is not None else 2000
+        return (now // interval + 1) * interval
+
+    def _bar_text(self, episodes: EpisodeRecorder | None, usage: np.ndarray) -> str:
+        ret = episodes.mean_recent_return() if episodes is not None else float("nan")
+        parts = [f"return {ret:.3g}"]
+        if self.n_teachers and usage.sum() > 0:
+            frac = usage / usage.sum()
+            names = [*self.teacher_names, "agent"]
+            parts.append(" ".join(f"{n} {f:.0%}" for n, f in zip(names, frac, strict=True)))
+        return " | ".join(parts)
+
+    # ----------------------------------------------------------------- persistence
+    def save(self, path: str | Path) -> Path:
+        """Save the networks, optimizer and settings (never the teachers) to ``path`` (.pt)."""
+        path = Path(path)
+        if path.suffix != ".pt":
+            path = path.with_name(path.name + ".pt")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        state = {
+            "format": "tlac.TLAC/1",
+            "config": dataclasses.asdict(self.config),
+            "seed": self.seed,
+            "num_timesteps": self.num_timesteps,
+            "observation_space": self.observation_space,
+            "action_space": self.action_space,
+            "teacher_names": self.teacher_names,
+            "net": self.net.state_dict(),
+            "log_std": None if self.log_std is None else self.log_std.detach().clone(),
+            "optimizer": self.optimizer.state_dict(),
+        }
+        tmp = path.with_name(path.name + ".tmp")
+        torch.save(state, tmp)
+        tmp.replace(path)
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path, env: Any = None, teachers: Sequence[Any] | None = None) -> TLAC:
+        """Load a saved model. Pass ``env`` (and, to train on with advice, the same number of
+        ``teachers`` as at save time) to continue training; ``predict`` needs neither."""
+        path = Path(path)
+        if not path.exists() and path.with_name(path.name + ".pt").exists():
+            path = path.with_name(path.name + ".pt")
+        if not path.exists():
+            raise ConfigError(f"no TL-AC model at {str(path)!r}")
+        state = torch.load(path, weights_only=False)
+        if state.get("format") != "tlac.TLAC/1":
+            raise ConfigError(f"{str(path)!r} is not a TL-AC model file")
+        model = cls.__new__(cls)
+        model.config = TLACConfig(**state["config"])
+        model.seed = state["seed"]
+        model.recorder = None
+        model.num_timesteps = state["num_timesteps"]
+        model._last_obs = None
+        names = state["teacher_names"]
+        if env is not None:
+            model.env, domain = _as_vec_env(env, model.config.n_envs, model.seed)
+            model.n_envs = model.env.num_envs
+        else:
+            model.env, domain, model.n_envs = None, None, 1
+        model.teachers = []
+        if teachers is not None:
+            if model.env is None and teachers and all(isinstance(t, str) for t in teachers):
+                raise ConfigError("teacher names need env to be a domain name")
+            model.teachers = model._make_teachers(teachers, domain, model.seed) if teachers else []
+            if len(model.teachers) != len(names):
+                raise ConfigError(
+                    f"the model was trained with {len(names)} teachers ({', '.join(names) or 'none'}); "
+                    f"got {len(model.teachers)}"
+                )
+        model._build(state["observation_space"], state["action_space"], names)
+        model.net.load_state_dict(state["net"])
+        if state["log_std"] is not None:
+            assert model.log_std is not None
+            with torch.no_grad():
+                model.log_std.copy_(state["log_std"])
+        model.optimizer.load_state_dict(state["optimizer"])
+        return model
