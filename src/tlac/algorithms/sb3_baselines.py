@@ -1,0 +1,273 @@
+"""The no-advice baselines: stable-baselines3's A2C (the paper's baseline) and PPO.
+
+Thin adapters that give SB3's ``A2C`` / ``PPO`` the project's algorithm contract
+(``docs/architecture.md``): ``Algo(env, teachers, seed, recorder, **hyperparameters)``,
+``learn(total_timesteps, callback, progress_bar)``, ``num_timesteps``, ``predict``, ``save``
+and ``load``. The learning itself is SB3's, unchanged (paper, section 4.1: "The A2C baseline
+uses the default setting of the Stable Baseline3"; its settings are Tables 4, 7 and 9).
+
+Preset keys are translated to SB3 arguments by :func:`sb3_kwargs` (a pure function):
+
+* ``optimizer: rmsprop_tf`` + ``optimizer_eps`` -> ``policy_kwargs.optimizer_class =
+  RMSpropTFLike`` with ``optimizer_kwargs = {alpha: 0.99, eps, weight_decay: 0}`` (the
+  rl-baselines3-zoo convention for the tables' "RMSpropTFLike, RMSProp epsilon 1e-5");
+  ``adam`` / ``rmsprop`` select torch's optimizers with that epsilon;
+* ``net_arch: [64, 64]`` -> ``dict(pi=[64, 64], vf=[64, 64])`` (the tables' "pi=[64, 64],
+  vf=[64, 64]": separate actor and critic networks);
+* ``ortho_init``, ``log_std_init`` -> ``policy_kwargs``; ``use_sde``, ``sde_sample_freq`` as is;
+* schedules ``{linear: [start, end]}`` -> SB3 callables of the remaining progress
+  (``learning_rate``, ``clip_range``); PPO's ``target_kl`` takes only a number in SB3, so a
+  scheduled ``target_kl`` is re-set from its schedule before every update (see
+  :class:`_ContractCallback`).
+
+>>> kw = sb3_kwargs("a2c", {"net_arch": [64, 64], "optimizer": "rmsprop_tf", "optimizer_eps": 1e-5})
+>>> kw["policy_kwargs"]["net_arch"], kw["policy_kwargs"]["optimizer_kwargs"]["eps"]
+({'pi': [64, 64], 'vf': [64, 64]}, 1e-05)
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+import torch
+from stable_baselines3 import A2C, PPO
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.logger import KVWriter, Logger
+from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
+from stable_baselines3.common.vec_env import VecEnv
+
+from tlac.errors import ConfigError
+from tlac.presets import Schedule, make_schedule
+from tlac.recording import Recorder
+
+ContractCallback = Callable[[Any], "bool | None"]
+
+_SB3_CLASSES: dict[str, type[BaseAlgorithm]] = {"a2c": A2C, "ppo": PPO}
+_POLICY_KEYS = ("ortho_init", "log_std_init")
+_SCHEDULED = ("learning_rate", "clip_range")
+
+
+def _net_arch(value: Any) -> dict[str, list[int]]:
+    """``[64, 64]`` -> ``{pi: [64, 64], vf: [64, 64]}``; a ``{pi, vf}`` mapping is kept."""
+    if isinstance(value, dict) and set(value) == {"pi", "vf"}:
+        return {"pi": [int(v) for v in value["pi"]], "vf": [int(v) for v in value["vf"]]}
+    if isinstance(value, list | tuple) and all(isinstance(v, int) and v > 0 for v in value):
+        return {"pi": list(value), "vf": list(value)}
+    raise ConfigError(
+        f"net_arch: expected a list of layer sizes or {{pi: [...], vf: [...]}}, got {value!r}"
+    )
+
+
+def _optimizer(name: str, eps: float) -> tuple[type[torch.optim.Optimizer], dict[str, Any]]:
+    """The optimizer class and its keyword arguments for a preset's ``optimizer`` name."""
+    if name == "rmsprop_tf":
+        # Tables 4/7/9: "Optimizer RMSpropTFLike, RMSProp epsilon 1e-5"; alpha 0.99 as SB3's A2C
+        return RMSpropTFLike, {"alpha": 0.99, "eps": eps, "weight_decay": 0}
+    if name == "rmsprop":
+        return torch.optim.RMSprop, {"alpha": 0.99, "eps": eps, "weight_decay": 0}
+    if name == "adam":
+        return torch.optim.Adam, {"eps": eps}
+    raise ConfigError(f"optimizer: expected one of rmsprop_tf, rmsprop, adam, got {name!r}")
+
+
+def sb3_kwargs(algo: str, hp: dict[str, Any]) -> dict[str, Any]:
+    """Translate a preset's settings for ``algo`` (``a2c`` or ``ppo``) into SB3 constructor
+    arguments. Unknown keys raise :class:`ConfigError` naming the key and the accepted ones.
+    A scheduled ``target_kl`` is returned under the private key ``_target_kl_schedule``."""
+    sb3_cls = _SB3_CLASSES[algo]
+    hp = dict(hp)
+    policy_kwargs: dict[str, Any] = dict(hp.pop("policy_kwargs", None) or {})
+    out: dict[str, Any] = {}
+    if "net_arch" in hp:
+        policy_kwargs["net_arch"] = _net_arch(hp.pop("net_arch"))
+    eps = float(hp.pop("optimizer_eps", 1e-5))
+    name = hp.pop("optimizer", None)
+    if name is not None:
+        cls, kwargs = _optimizer(str(name), eps)
+        policy_kwargs["optimizer_class"] = cls
+        policy_kwargs["optimizer_kwargs"] = kwargs
+    elif algo == "a2c":
+        out["rms_prop_eps"] = eps
+    for key in _POLICY_KEYS:
+        if key in hp:
+            policy_kwargs[key] = hp.pop(key)
+    for key in _SCHEDULED:
+        if key in hp and isinstance(hp[key], dict):
+            out[key] = make_schedule(hp.pop(key), key)
+    if algo == "ppo" and isinstance(hp.get("target_kl"), dict):
+        out["_target_kl_schedule"] = make_schedule(hp.pop("target_kl"), "target_kl")
+    accepted = set(inspect.signature(sb3_cls.__init__).parameters) - {
+        "self",
+        "policy",
+        "env",
+        "seed",
+        "device",
+        "verbose",
+        "_init_setup_model",
+        "policy_kwargs",
+    }
+    for key, value in hp.items():
+        if key not in accepted:
+            raise ConfigError(
+                f"unknown {algo} hyperparameter {key!r}; expected one of: "
+                f"{', '.join(sorted(accepted | {'net_arch', 'optimizer', 'optimizer_eps', *_POLICY_KEYS}))}"
+            )
+        if isinstance(value, dict):  # a schedule where SB3 takes only a number
+            raise ConfigError(
+                f"{algo} hyperparameter {key!r} does not accept a schedule, got {value!r}"
+            )
+        out[key] = value
+    out["policy_kwargs"] = policy_kwargs
+    return out
+
+
+class _RecorderWriter(KVWriter):
+    """Forwards SB3's logged scalars (``train/``, ``rollout/``, ``time/``) to the run folder's
+    ``progress.csv`` through :meth:`Recorder.record_metrics`."""
+
+    def __init__(self, recorder: Recorder):
+        self.recorder = recorder
+
+    def write(
+        self, key_values: dict[str, Any], key_excluded: dict[str, tuple[str, ...]], step: int = 0
+    ) -> None:
+        scalars = {
+            k: float(v)
+            for k, v in key_values.items()
+            if isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool)
+        }
+        if scalars:
+            self.recorder.record_metrics(int(step), scalars)
+
+    def close(self) -> None:
+        pass
+
+
+class _ContractCallback(BaseCallback):
+    """Calls the contract's ``callback(algo) -> bool | None`` at the end of every rollout
+    (returning ``False`` stops training) and re-sets a scheduled PPO ``target_kl``."""
+
+    def __init__(
+        self, owner: _SB3Baseline, callback: ContractCallback | None, total_timesteps: int
+    ):
+        super().__init__()
+        self.owner, self.user_callback, self.total = owner, callback, max(1, total_timesteps)
+        self._stop = False
+
+    def _set_target_kl(self) -> None:
+        schedule = self.owner._target_kl_schedule
+        if schedule is not None:
+            remaining = 1.0 - min(1.0, self.model.num_timesteps / self.total)
+            self.model.target_kl = float(schedule(remaining))  # type: ignore[attr-defined]
+
+    def _on_training_start(self) -> None:
+        self._set_target_kl()
+
+    def _on_step(self) -> bool:
+        return not self._stop
+
+    def _on_rollout_end(self) -> None:
+        self._set_target_kl()  # the update that follows uses this rollout's progress
+        if self.user_callback is not None and self.user_callback(self.owner) is False:
+            self._stop = True
+
+
+class _SB3Baseline:
+    """Common adapter; subclasses set :attr:`name`."""
+
+    name: ClassVar[str] = ""
+
+    def __init__(
+        self,
+        env: VecEnv,
+        teachers: list[Any] | None = None,
+        seed: int = 0,
+        recorder: Recorder | None = None,
+        **hyperparameters: Any,
+    ):
+        if teachers:
+            raise ConfigError(
+                f"{self.name} is a no-advice baseline and takes no teachers, got "
+                f"{[getattr(t, 'name', t) for t in teachers]}"
+            )
+        self.hyperparameters = dict(hyperparameters)
+        self.hyperparameters.pop("n_envs", None)
+        kwargs = sb3_kwargs(self.name, self.hyperparameters)
+        self._target_kl_schedule: Schedule | None = kwargs.pop("_target_kl_schedule", None)
+        self.seed, self.recorder = seed, recorder
+        sb3_cls = _SB3_CLASSES[self.name]
+        self.model: BaseAlgorithm = sb3_cls(
+            "MlpPolicy", env, seed=seed, device="cpu", verbose=0, **kwargs
+        )
+        self._attach_recorder()
+
+    def _attach_recorder(self) -> None:
+        if self.recorder is not None:
+            self.model.set_logger(
+                Logger(folder=None, output_formats=[_RecorderWriter(self.recorder)])
+            )
+
+    @property
+    def num_timesteps(self) -> int:
+        """Environment steps taken so far, over all environments."""
+        return int(self.model.num_timesteps)
+
+    def learn(
+        self,
+        total_timesteps: int,
+        callback: ContractCallback | None = None,
+        progress_bar: bool = False,
+    ) -> _SB3Baseline:
+        """Train for ``total_timesteps`` environment steps with SB3's own loop."""
+        first = self.model.num_timesteps == 0
+        total = int(total_timesteps) + (0 if first else self.num_timesteps)
+        self.model.learn(
+            int(total_timesteps),
+            callback=_ContractCallback(self, callback, total),
+            progress_bar=progress_bar,
+            reset_num_timesteps=first,
+        )
+        return self
+
+    def predict(self, obs: np.ndarray, deterministic: bool = True) -> tuple[np.ndarray, None]:
+        """The policy's actions for a batch of observations (no teacher is involved)."""
+        actions, _ = self.model.predict(obs, deterministic=deterministic)
+        return np.asarray(actions), None
+
+    def save(self, path: str | Path) -> None:
+        """Write ``path`` + ``.zip`` (SB3's format; the optimizer state included)."""
+        p = Path(path)
+        self.model.save(str(p.with_suffix("") if p.suffix == ".zip" else p))
+
+    @classmethod
+    def load(
+        cls, path: str | Path, env: VecEnv | None = None, teachers: list[Any] | None = None
+    ) -> _SB3Baseline:
+        """Load a model written by :meth:`save` (``path`` with or without ``.zip``)."""
+        p = Path(path)
+        if p.suffix != ".zip":
+            p = p.with_name(p.name + ".zip")
+        if not p.exists():
+            raise ConfigError(f"no {cls.name} model at {str(p)!r}")
+        obj = cls.__new__(cls)
+        obj.hyperparameters, obj.seed, obj.recorder = {}, 0, None
+        obj._target_kl_schedule = None
+        obj.model = _SB3_CLASSES[cls.name].load(str(p), env=env, device="cpu")
+        return obj
+
+
+class A2CBaseline(_SB3Baseline):
+    """SB3's A2C with the paper's presets (Tables 4, 7, 9); the paper's no-advice baseline."""
+
+    name = "a2c"
+
+
+class PPOBaseline(_SB3Baseline):
+    """SB3's PPO (TL-AC's clipped update without the high level); a second no-advice baseline."""
+
+    name = "ppo"
