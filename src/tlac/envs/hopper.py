@@ -28,12 +28,13 @@ P_TEACHER: dict[str, float] = {"good": 0.8, "noisy": 0.2}
 """Probability of following the optimal (SAC) policy; a uniform random action otherwise."""
 
 
-class Float32Observation(gym.ObservationWrapper):
+class Float32Observation(gym.ObservationWrapper, gym.utils.RecordConstructorArgs):
     """Cast observations to float32 (MuJoCo's Hopper-v5 returns float64) so the observation
     matches a float32 ``Box`` and ``check_env`` passes."""
 
     def __init__(self, env: gym.Env):
-        super().__init__(env)
+        gym.utils.RecordConstructorArgs.__init__(self)
+        gym.ObservationWrapper.__init__(self, env)
         space = env.observation_space
         assert isinstance(space, gym.spaces.Box)
         self.observation_space = gym.spaces.Box(

@@ -73,11 +73,12 @@ def _fixed_goal_env_class() -> type:
     return FixedGoalPickAndPlaceEnv
 
 
-class FetchVectorObservation(gym.Wrapper):
+class FetchVectorObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
     """Keep only Fetch's 25-dim ``observation`` vector (float32); ``is_success`` as a bool."""
 
     def __init__(self, env: gym.Env):
-        super().__init__(env)
+        gym.utils.RecordConstructorArgs.__init__(self)
+        gym.Wrapper.__init__(self, env)
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, shape=(25,), dtype=np.float32)
 
     def reset(self, **kwargs: Any) -> tuple[np.ndarray, dict[str, Any]]:
