@@ -23,6 +23,8 @@ The thresholds below were tuned for MuJoCo 3.3 / Gymnasium-Robotics 1.4 (see doc
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import gymnasium as gym
 import numpy as np
 
@@ -118,7 +120,7 @@ def optimal_actions(obs: np.ndarray) -> np.ndarray:
 class ScriptedTeacher:
     """A batched teacher from one of the functions above."""
 
-    def __init__(self, fn, name: str):  # noqa: ANN001 - a batched obs -> actions function
+    def __init__(self, fn: Callable[[np.ndarray], np.ndarray], name: str):
         self.fn, self.name = fn, name
 
     def predict(self, obs: np.ndarray) -> np.ndarray:
