@@ -1,0 +1,117 @@
+"""``tlac experiment ...`` and ``tlac report ...``: the command-line side of the experiments.
+
+The main ``tlac`` command calls :func:`register` to add these sub-commands; each parser sets
+``func=handler(args) -> int`` (exit status). ``python -m tlac.experiments.cli`` runs them
+standalone. Errors are :class:`~tlac.errors.TlacError`; the main CLI prints them as one line.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from tlac.errors import TlacError
+
+
+def _experiment_run(args: argparse.Namespace) -> int:
+    from tlac.experiments.config import load_config
+    from tlac.experiments.runner import run_local, run_ray
+
+    config = load_config(args.config)
+    if args.backend == "ray":
+        summary = run_ray(config, args.out, address=args.address, workers=args.workers)
+    else:
+        if args.address is not None:
+            raise TlacError("--address needs --backend ray")
+        summary = run_local(config, args.out, workers=args.workers or 1)
+    for line in summary.lines():
+        print(line)
+    if summary.interrupted:
+        print(f"interrupted: rerun the same command to resume ({args.out})")
+        return 130
+    return 0 if summary.ok else 1
+
+
+def _experiment_list(args: argparse.Namespace) -> int:
+    from tlac.experiments.config import load_config
+    from tlac.experiments.runner import grid_status
+
+    config = load_config(args.config)
+    rows = grid_status(config, args.out) if args.out else None
+    from tlac.experiments.grid import expand_grid
+
+    runs = expand_grid(config)
+    print(f"{config.name}: {config.domain}, {len(config.teacher_sets)} teacher sets x "
+          f"{len(config.algorithms)} algorithms, {len(runs)} runs of {config.steps:,} steps")
+    if rows is None:
+        for r in runs:
+            print(f"  {r.name}  teachers={r.spec.teachers}")
+    else:
+        for r, status in rows:
+            print(f"  {status:<9} {r.name}")
+    return 0
+
+
+def _report(args: argparse.Namespace) -> int:
+    from tlac.experiments.report import write_report
+
+    path = write_report(args.dir, paper=args.paper)
+    print(f"wrote {path} and figures in {Path(path).parent / 'figures'}")
+    return 0
+
+
+def register(subparsers: Any) -> None:
+    """Add ``experiment`` (``run``, ``list``) and ``report`` to the main CLI's sub-parsers."""
+    exp = subparsers.add_parser("experiment", help="run a grid of runs declared in a YAML file")
+    exp_sub = exp.add_subparsers(dest="experiment_command", required=True)
+
+    run = exp_sub.add_parser(
+        "run",
+        help="run (or resume) every run of an experiment file",
+        description="Runs every unfinished run of CONFIG into DIR/runs/<name>/. Rerunning the "
+        "same command skips finished runs and redoes interrupted or failed ones.",
+    )
+    run.add_argument("config", help="experiment YAML file (see configs/ and docs/experiments.md)")
+    run.add_argument("--out", required=True, metavar="DIR", help="output folder of the grid")
+    run.add_argument("--workers", type=int, default=None, metavar="N",
+                     help="parallel runs (local: processes, default 1; ray: runs in flight, "
+                     "and the CPUs of a local Ray instance)")
+    run.add_argument("--backend", choices=("local", "ray"), default="local",
+                     help="local processes (default) or Ray tasks")
+    run.add_argument("--address", default=None, metavar="ADDR",
+                     help="Ray cluster to join (auto, or HEAD:6379); default: start a local one")
+    run.set_defaults(func=_experiment_run)
+
+    lst = exp_sub.add_parser("list", help="print the runs of an experiment file (and their status)")
+    lst.add_argument("config")
+    lst.add_argument("--out", default=None, metavar="DIR", help="show each run's status in DIR")
+    lst.set_defaults(func=_experiment_list)
+
+    rep = subparsers.add_parser(
+        "report",
+        help="write a Markdown report and PNG figures for an experiment folder",
+        description="Reads DIR/experiment.yaml and DIR/runs/*, writes DIR/report.md, "
+        "DIR/figures/*.png and DIR/summary.csv.",
+    )
+    rep.add_argument("dir", metavar="DIR", help="output folder of 'tlac experiment run'")
+    rep.add_argument("--paper", action="store_true",
+                     help="show the paper's jumpstarts (Tables 1-3) beside ours where they exist")
+    rep.set_defaults(func=_report)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Standalone entry point: ``python -m tlac.experiments.cli experiment run ...``."""
+    parser = argparse.ArgumentParser(prog="tlac")
+    register(parser.add_subparsers(dest="command", required=True))
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args))
+    except TlacError as exc:
+        print(f"tlac: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
