@@ -18,7 +18,9 @@ from tlac.envs.doorkey import (
     AGENT,
     DOMAIN,
     DOOR,
+    GOAL,
     KEY,
+    LEFT,
     MAX_STEPS,
     make_doorkey_env,
     obs_to_grid,
@@ -118,6 +120,22 @@ def test_spaces_and_check_env(env):
     assert env.observation_space.dtype == np.float32
     check_env(env.unwrapped, skip_render_check=True)
     check_env(env, skip_render_check=True)
+
+
+def test_hidden_done_action_is_rejected(env):
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"action 6 is outside Discrete\(6\)"):
+        env.step(6)
+
+
+def test_teacher_on_a_terminal_observation_gives_a_valid_action(env):
+    """On the last observation the agent covers the goal: no plan exists, and the teacher
+    still answers (AC-Teach's meta target queries teachers on terminal observations)."""
+    teacher = DoorKeyOptimalTeacher()
+    last = run_episode(env, lambda o: teacher.predict(o[None])[0], seed=2)[3][-1]
+    assert not (obs_to_grid(last)[0, ..., 0] == GOAL).any()
+    assert teacher.predict(last[None]).tolist() == [LEFT]
+    assert region_of(last[None]).tolist() == [1]
 
 
 def test_observation_is_the_full_grid(env):

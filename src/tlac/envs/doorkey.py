@@ -105,7 +105,11 @@ class FirstActions(gym.ActionWrapper):
         self.action_space = gym.spaces.Discrete(n, start=int(space.start))
 
     def action(self, action: Any) -> int:
-        return int(action)
+        a = int(action)
+        if not self.action_space.contains(a):
+            # Without this check MiniGrid would silently run its hidden actions.
+            raise ValueError(f"action {action!r} is outside {self.action_space}")
+        return a
 
 
 class FullyObservedDoorKey(DoorKeyEnv):
