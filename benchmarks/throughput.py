@@ -43,19 +43,26 @@ def sb3_ppo_settings(preset: dict) -> dict:
     )
 
 
-def time_tlac(steps: int, seed: int) -> float:
+def _timed(work, steps: int) -> dict[str, float]:
+    """Steps per wall-clock second and per CPU second of this process. On a shared machine
+    the CPU-time figure is the one to compare: other processes do not inflate it."""
+    wall, cpu = time.perf_counter(), time.process_time()
+    work()
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    return {"wall": steps / wall, "cpu": steps / cpu}
+
+
+def time_tlac(steps: int, seed: int) -> dict[str, float]:
     from tlac import TLAC
     from tlac.presets import load_preset
 
     preset = load_preset("doorkey", "tlac")
     model = TLAC("doorkey", teachers=["optimal", "random", "random"], seed=seed, **preset)
     model.learn(1000, progress_bar=False)  # warm-up
-    start = time.perf_counter()
-    model.learn(steps, progress_bar=False)
-    return steps / (time.perf_counter() - start)
+    return _timed(lambda: model.learn(steps, progress_bar=False), steps)
 
 
-def time_sb3_ppo(steps: int, seed: int) -> float:
+def time_sb3_ppo(steps: int, seed: int) -> dict[str, float]:
     from stable_baselines3 import PPO
 
     from tlac.envs import get_domain
@@ -66,9 +73,7 @@ def time_sb3_ppo(steps: int, seed: int) -> float:
     env = make_vec_env(get_domain("doorkey"), preset["n_envs"], seed, None)
     model = PPO("MlpPolicy", env, seed=seed, device="cpu", **sb3_ppo_settings(preset))
     model.learn(1008)  # warm-up
-    start = time.perf_counter()
-    model.learn(steps, reset_num_timesteps=False)
-    return steps / (time.perf_counter() - start)
+    return _timed(lambda: model.learn(steps, reset_num_timesteps=False), steps)
 
 
 def main() -> None:
@@ -80,14 +85,23 @@ def main() -> None:
     torch.set_num_threads(1)
     ppo = time_sb3_ppo(args.steps, args.seed)
     tlac = time_tlac(args.steps, args.seed)
-    result = {"steps": args.steps, "tlac_steps_per_s": round(tlac, 1), "sb3_ppo_steps_per_s": round(ppo, 1),
-              "ratio": round(tlac / ppo, 2), "torch": torch.__version__}
+    result = {
+        "steps": args.steps,
+        "tlac_steps_per_cpu_s": round(tlac["cpu"], 1),
+        "sb3_ppo_steps_per_cpu_s": round(ppo["cpu"], 1),
+        "ratio_cpu": round(tlac["cpu"] / ppo["cpu"], 2),
+        "tlac_steps_per_wall_s": round(tlac["wall"], 1),
+        "sb3_ppo_steps_per_wall_s": round(ppo["wall"], 1),
+        "ratio_wall": round(tlac["wall"] / ppo["wall"], 2),
+        "torch": torch.__version__,
+    }
     if args.json:
         print(json.dumps(result))
     else:
-        print(f"TL-AC (3 teachers): {tlac:8.1f} steps/s")
-        print(f"SB3 PPO           : {ppo:8.1f} steps/s")
-        print(f"ratio TL-AC / PPO : {tlac / ppo:8.2f}")
+        print(f"{'':20s} {'steps/CPU-s':>12s} {'steps/wall-s':>13s}")
+        print(f"{'TL-AC (3 teachers)':20s} {tlac['cpu']:12.1f} {tlac['wall']:13.1f}")
+        print(f"{'SB3 PPO':20s} {ppo['cpu']:12.1f} {ppo['wall']:13.1f}")
+        print(f"{'ratio TL-AC / PPO':20s} {tlac['cpu'] / ppo['cpu']:12.2f} {tlac['wall'] / ppo['wall']:13.2f}")
 
 
 if __name__ == "__main__":

@@ -16,9 +16,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import torch
 
-from tlac.algorithms.nets import sample_categorical
+from tlac.algorithms.nets import np_sample_categorical
 
 
 def ucb1_scores(sums: np.ndarray, counts: np.ndarray, c: float, value_range: float) -> np.ndarray:
@@ -46,11 +45,11 @@ class LearnedSelector:
     name = "learned"
     trains_high_level = True
 
-    def __init__(self, generator: torch.Generator):
-        self.generator = generator
+    def __init__(self, rng: np.random.Generator):
+        self.rng = rng
 
-    def select(self, high_logits: torch.Tensor, episode_starts: np.ndarray) -> np.ndarray:
-        return sample_categorical(high_logits, self.generator).numpy()
+    def select(self, high_logits: np.ndarray, episode_starts: np.ndarray) -> np.ndarray:
+        return np_sample_categorical(high_logits, self.rng)
 
     def episode_end(self, env_index: int, episode_return: float) -> None:
         pass
@@ -66,7 +65,7 @@ class RandomSelector:
         self.n_choices = n_choices
         self.rng = np.random.default_rng(seed)
 
-    def select(self, high_logits: torch.Tensor | None, episode_starts: np.ndarray) -> np.ndarray:
+    def select(self, high_logits: np.ndarray | None, episode_starts: np.ndarray) -> np.ndarray:
         return self.rng.integers(self.n_choices, size=len(episode_starts))
 
     def episode_end(self, env_index: int, episode_return: float) -> None:
@@ -88,7 +87,7 @@ class UCB1Selector:
         self.low = math.inf
         self.high = -math.inf
 
-    def select(self, high_logits: torch.Tensor | None, episode_starts: np.ndarray) -> np.ndarray:
+    def select(self, high_logits: np.ndarray | None, episode_starts: np.ndarray) -> np.ndarray:
         for i in np.flatnonzero(episode_starts):
             value_range = self.high - self.low if self.high > self.low else 1.0
             scores = ucb1_scores(self.sums, self.counts, self.c, value_range)

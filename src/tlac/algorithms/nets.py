@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import torch
 from torch import nn
 
@@ -73,20 +74,60 @@ class StackedMLP(nn.Module):
             masks.append(mask)
         for i, mask in enumerate(masks):
             self.register_buffer(f"mask{i}", mask)
+        # plain Python references to the same tensors: indexing a ParameterList costs more
+        # than the matmul it feeds (load_state_dict copies in place, so they stay valid)
+        self._layers = [
+            (w, b, getattr(self, f"mask{i}")) for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True))
+        ]
+        # NumPy views of the same memory, for acting: one small NumPy matmul costs ~1 us of
+        # overhead against ~5 us for a PyTorch op, and acting needs no gradient. The
+        # optimizer updates the parameters in place, so the views always see current weights.
+        self._np_layers = [(w.detach().numpy(), b.detach().numpy()) for w, b, _ in self._layers]
 
     def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         h = x.unsqueeze(0).expand(self.members, *x.shape)
-        n_layers = len(self.weights)
+        last = len(self._layers) - 1
         last_hidden = h
-        for i in range(n_layers):
-            w = self.weights[i]
-            if self.needs_mask:
-                w = w * getattr(self, f"mask{i}")
-            h = torch.baddbmm(self.biases[i], h, w)
-            if i < n_layers - 1:
+        for i, (w, b, mask) in enumerate(self._layers):
+            h = torch.baddbmm(b, h, w * mask if self.needs_mask else w)
+            if i < last:
                 h = torch.tanh(h)
                 last_hidden = h
         return h, last_hidden
+
+    def forward_numpy(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`forward` without autograd, in NumPy, for acting. Padded weights are exactly
+        zero (the mask is applied in every training forward pass, so gradients never reach
+        them), hence no mask is needed here."""
+        h = x[None]
+        last = len(self._np_layers) - 1
+        last_hidden = h
+        for i, (w, b) in enumerate(self._np_layers):
+            h = np.matmul(h, w) + b
+            if i < last:
+                h = np.tanh(h)
+                last_hidden = h
+        return h, last_hidden
+
+
+def np_log_softmax(logits: np.ndarray) -> np.ndarray:
+    z = logits - logits.max(axis=-1, keepdims=True)
+    return z - np.log(np.exp(z).sum(axis=-1, keepdims=True))
+
+
+def np_sample_categorical(logits: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Gumbel-max sampling: ``argmax(logits + Gumbel noise)`` is a sample of softmax(logits)."""
+    return np.argmax(logits + rng.gumbel(size=logits.shape), axis=-1)
+
+
+def np_gaussian_log_prob(actions: np.ndarray, mean: np.ndarray, log_std: np.ndarray) -> np.ndarray:
+    """NumPy twin of :func:`gaussian_log_prob`."""
+    return (-((actions - mean) ** 2) / (2 * np.exp(2 * log_std)) - log_std - 0.5 * math.log(2 * math.pi)).sum(-1)
+
+
+def np_gsde_log_std(latent: np.ndarray, log_std_matrix: np.ndarray, epsilon: float = 1e-6) -> np.ndarray:
+    """NumPy twin of :func:`gsde_log_std`."""
+    return 0.5 * np.log((latent**2) @ np.exp(2 * log_std_matrix) + epsilon)
 
 
 def gaussian_log_prob(actions: torch.Tensor, mean: torch.Tensor, log_std: torch.Tensor) -> torch.Tensor:
@@ -114,9 +155,3 @@ def categorical_log_probs(logits: torch.Tensor) -> torch.Tensor:
 
 def categorical_entropy(log_probs: torch.Tensor) -> torch.Tensor:
     return -(log_probs.exp() * log_probs).sum(-1)
-
-
-def sample_categorical(logits: torch.Tensor, generator: torch.Generator | None = None) -> torch.Tensor:
-    """Gumbel-max sampling: ``argmax(logits + Gumbel noise)`` is a sample of softmax(logits)."""
-    u = torch.rand(logits.shape, generator=generator).clamp_(1e-20, 1.0)
-    return torch.argmax(logits - torch.log(-torch.log(u)), dim=-1)

@@ -16,25 +16,28 @@ import torch
 
 @dataclass
 class Rollout:
-    obs: torch.Tensor  # (T, E, obs_dim) float32
-    actions: torch.Tensor  # (T, E) int64 or (T, E, act_dim) float32: the EXECUTED actions
-    choices: torch.Tensor  # (T, E) int64: teacher index, n_teachers = the agent itself
-    rewards: torch.Tensor  # (T, E) float32, with gamma * V(final obs) added on truncation
-    dones: torch.Tensor  # (T, E) float32: the episode ended after this step
-    values: torch.Tensor  # (T, E) float32: V(s_t) at collection time
-    log_prob_low: torch.Tensor  # (T, E): log pi_low(a_t | s_t) at collection time
-    log_prob_high: torch.Tensor  # (T, E): log pi_high(e_t | s_t) at collection time
-    advantages: torch.Tensor  # (T, E), filled by compute_gae
-    returns: torch.Tensor  # (T, E), filled by compute_gae
+    """Filled as NumPy arrays while acting (cheap per-step writes); :meth:`flat` hands the
+    update zero-copy PyTorch tensors."""
+
+    obs: np.ndarray  # (T, E, obs_dim) float32
+    actions: np.ndarray  # (T, E) int64 or (T, E, act_dim) float32: the EXECUTED actions
+    choices: np.ndarray  # (T, E) int64: teacher index, n_teachers = the agent itself
+    rewards: np.ndarray  # (T, E) float32, with gamma * V(final obs) added on truncation
+    dones: np.ndarray  # (T, E) float32: the episode ended after this step
+    values: np.ndarray  # (T, E) float32: V(s_t) at collection time
+    log_prob_low: np.ndarray  # (T, E): log pi_low(a_t | s_t) at collection time
+    log_prob_high: np.ndarray  # (T, E): log pi_high(e_t | s_t) at collection time
+    advantages: np.ndarray  # (T, E), filled by compute_gae
+    returns: np.ndarray  # (T, E), filled by compute_gae
 
     @classmethod
     def empty(cls, n_steps: int, n_envs: int, obs_dim: int, action_shape: tuple[int, ...], discrete: bool) -> Rollout:
         te = (n_steps, n_envs)
-        z = lambda *shape, dtype=torch.float32: torch.zeros(*shape, dtype=dtype)  # noqa: E731
+        z = lambda *shape, dtype=np.float32: np.zeros(shape, dtype=dtype)  # noqa: E731
         return cls(
             obs=z(*te, obs_dim),
-            actions=z(*te, dtype=torch.int64) if discrete else z(*te, *action_shape),
-            choices=z(*te, dtype=torch.int64),
+            actions=z(*te, dtype=np.int64) if discrete else z(*te, *action_shape),
+            choices=z(*te, dtype=np.int64),
             rewards=z(*te),
             dones=z(*te),
             values=z(*te),
@@ -48,8 +51,8 @@ class Rollout:
         """Every field with time and env axes merged: ``(T * E, ...)``."""
         out = {}
         for f in fields(self):
-            t = getattr(self, f.name)
-            out[f.name] = t.reshape(t.shape[0] * t.shape[1], *t.shape[2:])
+            a = getattr(self, f.name)
+            out[f.name] = torch.from_numpy(np.ascontiguousarray(a.reshape(a.shape[0] * a.shape[1], *a.shape[2:])))
         return out
 
 

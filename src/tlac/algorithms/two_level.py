@@ -27,7 +27,6 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import torch
-from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 from torch import nn
 
@@ -41,8 +40,12 @@ from tlac.algorithms.nets import (
     gaussian_entropy,
     gaussian_log_prob,
     gsde_log_std,
-    sample_categorical,
+    np_gaussian_log_prob,
+    np_gsde_log_std,
+    np_log_softmax,
+    np_sample_categorical,
 )
+from tlac.algorithms.optim import RMSpropTFLikeForeach
 from tlac.algorithms.rollout import Rollout, compute_gae
 from tlac.errors import ConfigError, UnknownNameError
 from tlac.presets import make_schedule, validate_schedule
@@ -80,7 +83,7 @@ class TLACConfig:
     """GAE(lambda); 0 gives the paper's one-step advantage (Eq. 2) exactly."""
     normalize_advantage: bool = True
     optimizer: str = "rmsprop_tf"
-    """rmsprop_tf (SB3's RMSpropTFLike, the paper's) or adam."""
+    """rmsprop_tf (SB3's RMSpropTFLike update, the paper's; run with foreach kernels) or adam."""
     optimizer_eps: float = 1e-5
     rmsprop_alpha: float = 0.99
     use_sde: bool = False
@@ -252,26 +255,41 @@ class TLAC:
         if cfg.optimizer == "adam":
             self.optimizer: torch.optim.Optimizer = torch.optim.Adam(params, lr=lr0, eps=cfg.optimizer_eps, foreach=True)
         else:
-            self.optimizer = RMSpropTFLike(params, lr=lr0, alpha=cfg.rmsprop_alpha, eps=cfg.optimizer_eps)
+            self.optimizer = RMSpropTFLikeForeach(params, lr=lr0, alpha=cfg.rmsprop_alpha, eps=cfg.optimizer_eps)
         self.lr_schedule = make_schedule(cfg.learning_rate, "learning_rate")
         self.clip_schedule = make_schedule(cfg.clip_range, "clip_range")
         self.kl_schedule = None if cfg.target_kl is None else make_schedule(cfg.target_kl, "target_kl")
-        self.generator = torch.Generator().manual_seed(self.seed)
+        self.generator = torch.Generator().manual_seed(self.seed)  # minibatch order
+        self.rng = np.random.default_rng(self.seed)  # acting
         if cfg.selector == "learned":
-            self.selector: Any = LearnedSelector(self.generator)
+            self.selector: Any = LearnedSelector(self.rng)
         elif cfg.selector == "random":
             self.selector = RandomSelector(self.n_choices, self.seed)
         else:
             self.selector = UCB1Selector(self.n_choices, getattr(self, "n_envs", 1), self.seed, cfg.ucb_c)
         self.train_high = self.selector.trains_high_level and self.n_choices > 1
-        self._sde_noise: torch.Tensor | None = None
-        self._ent_high = cfg.ent_coef if cfg.ent_coef_high is None else cfg.ent_coef_high
-        self._ent_low = cfg.ent_coef if cfg.ent_coef_low is None else cfg.ent_coef_low
+        self._sde_noise: np.ndarray | None = None
+        self._ent_coefs = torch.tensor([  # [low, high]
+            cfg.ent_coef if cfg.ent_coef_low is None else cfg.ent_coef_low,
+            cfg.ent_coef if cfg.ent_coef_high is None else cfg.ent_coef_high,
+        ])
 
     # ----------------------------------------------------------------- the policies
     def _heads(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
-        """(high logits, low output (logits or Gaussian mean), value, low-level last hidden)."""
+        """Training pass: (high logits, low output (logits or Gaussian mean), value, low-level
+        last hidden layer), with autograd."""
         out, hidden = self.net(obs)
+        return (
+            out[HIGH, :, : self.n_choices],
+            out[LOW, :, : self.net.out_dims[LOW]],
+            out[CRITIC, :, 0],
+            hidden[LOW, :, : self.config.net_arch_low[-1]],
+        )
+
+    def _act_heads(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Acting pass: the same four heads as :meth:`_heads`, in NumPy, without autograd."""
+        x = np.asarray(obs, dtype=np.float32).reshape(-1, self.obs_dim)
+        out, hidden = self.net.forward_numpy(x)
         return (
             out[HIGH, :, : self.n_choices],
             out[LOW, :, : self.net.out_dims[LOW]],
@@ -285,90 +303,101 @@ class TLAC:
             return gsde_log_std(latent, self.log_std)
         return self.log_std.expand(latent.shape[0], -1)
 
+    def _np_low_log_std(self, latent: np.ndarray) -> np.ndarray:
+        log_std = self.log_std.detach().numpy()  # type: ignore[union-attr]
+        if self.config.use_sde:
+            return np_gsde_log_std(latent, log_std)
+        return np.broadcast_to(log_std, (latent.shape[0], log_std.shape[-1]))
+
     def _low_log_prob_entropy(
         self, low_out: torch.Tensor, latent: torch.Tensor, actions: torch.Tensor
     ) -> tuple[torch.Tensor, torch.Tensor]:
+        """log pi_low(actions|s) and the low level's entropy per row (training pass)."""
         if self.discrete:
             log_probs = torch.log_softmax(low_out, dim=-1)
             return log_probs.gather(1, actions.view(-1, 1)).squeeze(1), categorical_entropy(log_probs)
         log_std = self._low_log_std(latent)
         return gaussian_log_prob(actions, low_out, log_std), gaussian_entropy(log_std)
 
-    def _sample_low(self, low_out: torch.Tensor, latent: torch.Tensor) -> torch.Tensor:
+    def _np_low_log_prob(self, low_out: np.ndarray, latent: np.ndarray, actions: np.ndarray) -> np.ndarray:
+        """log pi_low(actions|s) at collection time (acting pass)."""
         if self.discrete:
-            return sample_categorical(low_out, self.generator)
+            return np.take_along_axis(np_log_softmax(low_out), actions[:, None], axis=1)[:, 0]
+        return np_gaussian_log_prob(actions, low_out, self._np_low_log_std(latent))
+
+    def _sample_low(self, low_out: np.ndarray, latent: np.ndarray) -> np.ndarray:
+        """A sample of pi_low(.|s) per row (Algorithm 1, line 16)."""
+        if self.discrete:
+            return np_sample_categorical(low_out, self.rng)
         if self.config.use_sde:
-            if self._sde_noise is None:
-                self._resample_sde_noise()
-            assert self._sde_noise is not None
+            if self._sde_noise is None or len(self._sde_noise) < len(latent):
+                self._resample_sde_noise(len(latent))
             # one exploration matrix per environment: noise = latent @ eps_matrix
-            return low_out + torch.bmm(latent.unsqueeze(1), self._sde_noise[: latent.shape[0]]).squeeze(1)
-        assert self.log_std is not None
-        return low_out + torch.randn(low_out.shape, generator=self.generator) * self.log_std.exp()
+            return low_out + np.matmul(latent[:, None, :], self._sde_noise[: len(latent)])[:, 0]
+        log_std = self.log_std.detach().numpy()  # type: ignore[union-attr]
+        return low_out + self.rng.standard_normal(low_out.shape).astype(np.float32) * np.exp(log_std)
 
-    def _resample_sde_noise(self) -> None:
+    def _resample_sde_noise(self, n: int | None = None) -> None:
         assert self.log_std is not None
-        std = self.log_std.detach().exp()
-        self._sde_noise = torch.randn((self.n_envs, *std.shape), generator=self.generator) * std
+        std = np.exp(self.log_std.detach().numpy())
+        self._sde_noise = (self.rng.standard_normal((n or self.n_envs, *std.shape)) * std).astype(np.float32)
 
-    def _to_env_actions(self, actions: torch.Tensor) -> np.ndarray:
+    def _to_env_actions(self, actions: np.ndarray) -> np.ndarray:
         if self.discrete:
-            return actions.numpy()
+            return actions
         # as SB3 does for unsquashed Gaussians: the stored action keeps its sampled value,
         # the environment receives it clipped to the box
-        return torch.maximum(torch.minimum(actions, self._act_high), self._act_low).numpy()
+        return np.clip(actions, self.action_space.low, self.action_space.high)
 
-    def _obs_tensor(self, obs: np.ndarray) -> torch.Tensor:
-        return torch.as_tensor(np.asarray(obs), dtype=torch.float32).reshape(-1, self.obs_dim)
-
-    def predict(self, obs: np.ndarray, state: Any = None, episode_start: Any = None, deterministic: bool = True) -> tuple[np.ndarray, None]:
+    def predict(
+        self, obs: np.ndarray, state: Any = None, episode_start: Any = None, deterministic: bool = True
+    ) -> tuple[np.ndarray, None]:
         """Actions of the low-level policy alone (no teacher), SB3-style ``(actions, None)``."""
         obs = np.asarray(obs)
         single = obs.shape == self.observation_space.shape
-        with torch.inference_mode():
-            _, low_out, _, latent = self._heads(self._obs_tensor(obs))
-            if self.discrete:
-                actions = low_out.argmax(-1) if deterministic else sample_categorical(low_out, self.generator)
-            elif deterministic:
-                actions = low_out
-            else:
-                actions = low_out + torch.randn(low_out.shape, generator=self.generator) * self._low_log_std(latent).exp()
-            env_actions = self._to_env_actions(actions)
+        _, low_out, _, latent = self._act_heads(obs)
+        if self.discrete:
+            actions = low_out.argmax(-1) if deterministic else np_sample_categorical(low_out, self.rng)
+        elif deterministic:
+            actions = low_out
+        else:
+            noise = self.rng.standard_normal(low_out.shape) * np.exp(self._np_low_log_std(latent))
+            actions = low_out + noise.astype(np.float32)
+        env_actions = self._to_env_actions(actions)
         return (env_actions[0] if single else env_actions), None
 
     def predict_with_teachers(self, obs: np.ndarray, deterministic: bool = False) -> np.ndarray:
         """The training-time behaviour: the high level picks a teacher or the agent per row.
-        With ``deterministic`` the high level takes its most likely choice (learned selector)."""
+        With ``deterministic`` the high level and the agent take their most likely choice."""
         if not self.teachers:
             return self.predict(obs, deterministic=deterministic)[0]
         obs = np.asarray(obs).reshape(-1, *self.observation_space.shape)
-        with torch.inference_mode():
-            high_logits, low_out, _, latent = self._heads(self._obs_tensor(obs))
-            if deterministic and self.selector.name == "learned":
-                choices = high_logits.argmax(-1).numpy()
-            elif self.selector.name == "ucb1":  # best arm by mean return so far
-                counts = np.maximum(self.selector.counts, 1)
-                choices = np.full(len(obs), int(np.argmax(self.selector.sums / counts)))
-            elif self.selector.name == "random":
-                choices = self.selector.rng.integers(self.n_choices, size=len(obs))
-            else:
-                choices = sample_categorical(high_logits, self.generator).numpy()
-            actions = low_out.argmax(-1) if (self.discrete and deterministic) else (
-                low_out if deterministic else self._sample_low(low_out, latent)
-            )
-            actions = self._apply_teachers(choices, obs, actions.clone())
-            return self._to_env_actions(actions)
+        high_logits, low_out, _, latent = self._act_heads(obs)
+        if self.selector.name == "ucb1":  # the best arm by mean return so far
+            counts = np.maximum(self.selector.counts, 1)
+            choices = np.full(len(obs), int(np.argmax(self.selector.sums / counts)))
+        elif self.selector.name == "random":
+            choices = self.selector.rng.integers(self.n_choices, size=len(obs))
+        elif deterministic:
+            choices = high_logits.argmax(-1)
+        else:
+            choices = np_sample_categorical(high_logits, self.rng)
+        if deterministic:
+            actions = low_out.argmax(-1) if self.discrete else low_out.copy()
+        else:
+            actions = self._sample_low(low_out, latent)
+        return self._to_env_actions(self._apply_teachers(choices, obs, actions))
 
-    def _apply_teachers(self, choices: np.ndarray, obs: np.ndarray, actions: torch.Tensor) -> torch.Tensor:
+    def _apply_teachers(self, choices: np.ndarray, obs: np.ndarray, actions: np.ndarray) -> np.ndarray:
         """Replace the agent's action by the chosen teacher's in every row (Algorithm 1, line 18).
         A teacher is queried only for the rows where it was chosen."""
-        for k in np.unique(choices):
-            if k >= self.n_teachers:
-                continue
+        for k in range(self.n_teachers):
             rows = np.flatnonzero(choices == k)
+            if len(rows) == 0:
+                continue
             teacher = self.teachers[k]
             advice = check_actions(teacher.name, teacher.predict(obs[rows]), self.action_space, len(rows))
-            actions[torch.as_tensor(rows)] = torch.as_tensor(advice, dtype=actions.dtype)
+            actions[rows] = advice
         return actions
 
     # ----------------------------------------------------------------- Algorithm 1
@@ -381,51 +410,45 @@ class TLAC:
             self._last_obs = self.env.reset()
             self._episode_starts = np.ones(E, dtype=bool)
             self._episode_returns = np.zeros(E)
-        with torch.inference_mode():
-            if cfg.use_sde:
+        if cfg.use_sde:
+            self._resample_sde_noise()
+        for t in range(T):
+            if cfg.use_sde and cfg.sde_sample_freq > 0 and t > 0 and t % cfg.sde_sample_freq == 0:
                 self._resample_sde_noise()
-            for t in range(T):
-                if cfg.use_sde and cfg.sde_sample_freq > 0 and t > 0 and t % cfg.sde_sample_freq == 0:
-                    self._resample_sde_noise()
-                obs_np = self._last_obs
-                obs = self._obs_tensor(obs_np)
-                high_logits, low_out, values, latent = self._heads(obs)
-                choices = self.selector.select(high_logits, self._episode_starts)  # line 14
-                actions = self._sample_low(low_out, latent)  # line 16 (used where the agent acts)
-                actions = self._apply_teachers(choices, obs_np, actions)  # line 18
-                choices_t = torch.as_tensor(choices, dtype=torch.int64)
-                log_prob_low, _ = self._low_log_prob_entropy(low_out, latent, actions)
-                log_prob_high = torch.log_softmax(high_logits, -1).gather(1, choices_t.view(-1, 1)).squeeze(1)
+            obs = np.asarray(self._last_obs, dtype=np.float32).reshape(E, self.obs_dim)
+            high_logits, low_out, values, latent = self._act_heads(obs)
+            choices = self.selector.select(high_logits, self._episode_starts)  # line 14
+            actions = self._sample_low(low_out, latent)  # line 16 (kept where the agent acts)
+            actions = self._apply_teachers(choices, self._last_obs, actions)  # line 18
 
-                new_obs, rewards, dones, infos = self.env.step(self._to_env_actions(actions))  # line 19
-                self.num_timesteps += E
-                rewards = np.asarray(rewards, dtype=np.float32).copy()
-                self._episode_returns += rewards
-                for i in np.flatnonzero(dones):
-                    final = infos[i].get("terminal_observation")
-                    if infos[i].get("TimeLimit.truncated", False) and final is not None:
-                        # time-limit truncation is not termination: bootstrap from V(final obs)
-                        rewards[i] += cfg.gamma * float(self._heads(self._obs_tensor(final))[2][0])
-                    self.selector.episode_end(int(i), float(self._episode_returns[i]))
-                    self._episode_returns[i] = 0.0
+            new_obs, rewards, dones, infos = self.env.step(self._to_env_actions(actions))  # line 19
+            self.num_timesteps += E
+            rewards = np.asarray(rewards, dtype=np.float32).copy()
+            self._episode_returns += rewards
+            for i in np.flatnonzero(dones):
+                final = infos[i].get("terminal_observation")
+                if infos[i].get("TimeLimit.truncated", False) and final is not None:
+                    # time-limit truncation is not termination: bootstrap from V(final obs)
+                    rewards[i] += cfg.gamma * float(self._act_heads(final)[2][0])
+                self.selector.episode_end(int(i), float(self._episode_returns[i]))
+                self._episode_returns[i] = 0.0
 
-                ro.obs[t] = obs
-                ro.actions[t] = actions
-                ro.choices[t] = choices_t
-                ro.rewards[t] = torch.as_tensor(rewards)
-                ro.dones[t] = torch.as_tensor(dones, dtype=torch.float32)
-                ro.values[t] = values
-                ro.log_prob_low[t] = log_prob_low
-                ro.log_prob_high[t] = log_prob_high
-                self._last_obs = new_obs
-                self._episode_starts = np.asarray(dones, dtype=bool)
-            last_values = self._heads(self._obs_tensor(self._last_obs))[2]
-        adv, ret = compute_gae(
-            ro.rewards.numpy(), ro.values.numpy(), ro.dones.numpy(), last_values.numpy(), cfg.gamma, cfg.gae_lambda
+            ro.obs[t] = obs  # line 20: the transition and both levels' log-probabilities
+            ro.actions[t] = actions
+            ro.choices[t] = choices
+            ro.rewards[t] = rewards
+            ro.dones[t] = dones
+            ro.values[t] = values
+            ro.log_prob_low[t] = self._np_low_log_prob(low_out, latent, actions)
+            ro.log_prob_high[t] = np.take_along_axis(np_log_softmax(high_logits), choices[:, None], axis=1)[:, 0]
+            self._last_obs = new_obs
+            self._episode_starts = np.asarray(dones, dtype=bool)
+        last_values = self._act_heads(self._last_obs)[2]
+        ro.advantages, ro.returns = compute_gae(
+            ro.rewards, ro.values, ro.dones, last_values, cfg.gamma, cfg.gae_lambda
         )
-        ro.advantages, ro.returns = torch.from_numpy(adv), torch.from_numpy(ret)
         if self.recorder is not None:
-            self.recorder.record_selections(self.num_timesteps, ro.choices.numpy(), ro.obs.numpy())
+            self.recorder.record_selections(self.num_timesteps, ro.choices, ro.obs)
         return ro
 
     def update(self, ro: Rollout, progress_remaining: float) -> dict[str, float]:
@@ -438,49 +461,40 @@ class TLAC:
             group["lr"] = lr
         data = ro.flat()
         n = data["obs"].shape[0]
-        agent_index = self.n_teachers
-        stats: dict[str, list[torch.Tensor]] = {k: [] for k in ("pl_low", "pl_high", "vf", "ent_low", "ent_high", "kl")}
+        # both levels' log-probabilities at collection time, stacked: row 0 = low, row 1 = high
+        old_log_probs = torch.stack([data["log_prob_low"], data["log_prob_high"]])[: 2 if self.train_high else 1]
+        weights = None
+        if cfg.low_level_data == "agent":  # the low level learns only where the agent acted
+            agent_rows = (data["choices"] == self.n_teachers).float()
+            weights = torch.stack([agent_rows, torch.ones(n)])[: old_log_probs.shape[0]]
+        stats: list[torch.Tensor] = []
         stopped_early = False
         for _epoch in range(cfg.n_epochs):
             perm = torch.randperm(n, generator=self.generator)
             for start in range(0, n, cfg.batch_size):
                 idx = perm[start : start + cfg.batch_size]
-                obs, actions, choices = data["obs"][idx], data["actions"][idx], data["choices"][idx]
                 adv = data["advantages"][idx]
                 if cfg.normalize_advantage:
                     adv = losses.normalize(adv)
-                high_logits, low_out, values, latent = self._heads(obs)
-                # low level, Eq. 3: log pi_low(a|s) A(s, a) on the executed actions (clipped)
-                lp_low, ent_low = self._low_log_prob_entropy(low_out, latent, actions)
-                old_low = data["log_prob_low"][idx]
-                if cfg.low_level_data == "agent":
-                    mask = choices == agent_index
-                    loss_low = losses.masked_clipped_policy_loss(lp_low, old_low, adv, clip, mask)
-                    kl_low = losses.approx_kl(lp_low[mask], old_low[mask]) if mask.any() else torch.zeros(())
-                else:
-                    loss_low = losses.clipped_policy_loss(lp_low, old_low, adv, clip)
-                    kl_low = losses.approx_kl(lp_low, old_low)
-                loss = loss_low - self._ent_low * ent_low.mean()
-                kl = kl_low.detach()
-                # high level, Eq. 7: log pi_high(e|s) A(s, a) with the SAME advantage (Eq. 6)
+                high_logits, low_out, values, latent = self._heads(data["obs"][idx])
+                # low level, Eq. 3: log pi_low(a|s) A(s, a) on the EXECUTED actions
+                lp_low, ent_low = self._low_log_prob_entropy(low_out, latent, data["actions"][idx])
                 if self.train_high:
+                    # high level, Eq. 7: log pi_high(e|s) A(s, a), the SAME advantage (Eq. 6)
                     log_probs_high = torch.log_softmax(high_logits, -1)
-                    lp_high = log_probs_high.gather(1, choices.view(-1, 1)).squeeze(1)
-                    old_high = data["log_prob_high"][idx]
-                    loss_high = losses.clipped_policy_loss(lp_high, old_high, adv, clip)
-                    ent_high = categorical_entropy(log_probs_high)
-                    loss = loss + loss_high - self._ent_high * ent_high.mean()
-                    kl = torch.maximum(kl, losses.approx_kl(lp_high, old_high).detach())
-                    stats["pl_high"].append(loss_high.detach())
-                    stats["ent_high"].append(ent_high.mean().detach())
-                # the one shared critic (Eq. 5)
-                vf_loss = losses.value_loss(values, data["returns"][idx])
-                loss = loss + cfg.vf_coef * vf_loss
-                stats["pl_low"].append(loss_low.detach())
-                stats["ent_low"].append(ent_low.mean().detach())
-                stats["vf"].append(vf_loss.detach())
-                stats["kl"].append(kl)
-                if target_kl is not None and float(kl) > 1.5 * target_kl:
+                    lp_high = log_probs_high.gather(1, data["choices"][idx].view(-1, 1)).squeeze(1)
+                    log_probs = torch.stack([lp_low, lp_high])
+                    entropies = torch.stack([ent_low.mean(), categorical_entropy(log_probs_high).mean()])
+                else:
+                    log_probs, entropies = lp_low[None], ent_low.mean()[None]
+                policy_losses, kls = losses.clipped_policy_losses(
+                    log_probs, old_log_probs[:, idx], adv, clip, None if weights is None else weights[:, idx]
+                )
+                vf_loss = losses.value_loss(values, data["returns"][idx])  # the one shared critic (Eq. 5)
+                loss = policy_losses.sum() - (self._ent_coefs[: len(entropies)] * entropies).sum() + cfg.vf_coef * vf_loss
+                kl = float(kls.max())
+                stats.append(torch.cat([policy_losses.detach(), entropies.detach(), vf_loss.detach()[None], kls]))
+                if target_kl is not None and kl > 1.5 * target_kl:
                     stopped_early = True  # SB3's rule: stop before a step that moves too far
                     break
                 self.optimizer.zero_grad(set_to_none=True)
@@ -489,7 +503,11 @@ class TLAC:
                 self.optimizer.step()
             if stopped_early:
                 break
-        out = {f"train/{k}": float(torch.stack(v).mean()) for k, v in stats.items() if v}
+        levels = ["low", "high"][: old_log_probs.shape[0]]
+        keys = [f"policy_loss_{lv}" for lv in levels] + [f"entropy_{lv}" for lv in levels] + ["value_loss"]
+        keys += [f"approx_kl_{lv}" for lv in levels]
+        means = torch.stack(stats).mean(0).tolist()
+        out = {f"train/{k}": v for k, v in zip(keys, means, strict=True)}
         out.update({"train/learning_rate": lr, "train/clip_range": clip, "train/stopped_early": float(stopped_early)})
         return out
 
@@ -527,7 +545,7 @@ class TLAC:
         last_bar = 0.0
         while self.num_timesteps < end_steps:
             ro = self.collect()
-            usage += np.bincount(ro.choices.reshape(-1).numpy(), minlength=self.n_choices)
+            usage += np.bincount(ro.choices.reshape(-1), minlength=self.n_choices)
             progress_remaining = 1.0 - (self.num_timesteps - start_steps) / total_timesteps
             stats = self.update(ro, max(progress_remaining, 0.0))
             for k, v in stats.items():
