@@ -14,6 +14,10 @@ has no partial teachers (paper, footnote 7), so there is a single region ``all``
 
 from __future__ import annotations
 
+import os
+import sys
+from typing import Any
+
 import gymnasium as gym
 import numpy as np
 
@@ -48,11 +52,39 @@ class Float32Observation(gym.ObservationWrapper, gym.utils.RecordConstructorArgs
         return np.asarray(observation, dtype=np.float32)
 
 
+class QuietBulletConnect(gym.Wrapper, gym.utils.RecordConstructorArgs):
+    """Silence the ``argv[0]=`` line PyBullet's C code prints on stdout when the environment
+    connects to the physics server (its first reset), so ``--json`` output stays clean."""
+
+    def __init__(self, env: gym.Env):
+        gym.utils.RecordConstructorArgs.__init__(self)
+        gym.Wrapper.__init__(self, env)
+        self._connected = False
+
+    def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
+        if self._connected:
+            return self.env.reset(**kwargs)
+        self._connected = True
+        sys.stdout.flush()
+        try:
+            saved = os.dup(1)
+        except OSError:  # no real stdout (e.g. some notebook kernels): nothing to silence
+            return self.env.reset(**kwargs)
+        try:
+            with open(os.devnull, "w") as devnull:
+                os.dup2(devnull.fileno(), 1)
+                return self.env.reset(**kwargs)
+        finally:
+            os.dup2(saved, 1)
+            os.close(saved)
+
+
 def make_bullet_env() -> gym.Env:
     """PyBullet Hopper, the paper's environment (1000-step time limit)."""
     import pybullet_envs_gymnasium  # noqa: F401  (registers the *BulletEnv-v0 ids)
 
-    return Float32Observation(gym.make("HopperBulletEnv-v0", max_episode_steps=1000))
+    env = gym.make("HopperBulletEnv-v0", max_episode_steps=1000)
+    return Float32Observation(QuietBulletConnect(env))
 
 
 def make_mujoco_env() -> gym.Env:
