@@ -43,8 +43,10 @@ def _experiment_list(args: argparse.Namespace) -> int:
     from tlac.experiments.grid import expand_grid
 
     runs = expand_grid(config)
-    print(f"{config.name}: {config.domain}, {len(config.teacher_sets)} teacher sets x "
-          f"{len(config.algorithms)} algorithms, {len(runs)} runs of {config.steps:,} steps")
+    print(
+        f"{config.name}: {config.domain}, {len(config.teacher_sets)} teacher sets x "
+        f"{len(config.algorithms)} algorithms, {len(runs)} runs of {config.steps:,} steps"
+    )
     if rows is None:
         for r in runs:
             print(f"  {r.name}  teachers={r.spec.teachers}")
@@ -75,13 +77,26 @@ def register(subparsers: Any) -> None:
     )
     run.add_argument("config", help="experiment YAML file (see configs/ and docs/experiments.md)")
     run.add_argument("--out", required=True, metavar="DIR", help="output folder of the grid")
-    run.add_argument("--workers", type=int, default=None, metavar="N",
-                     help="parallel runs (local: processes, default 1; ray: runs in flight, "
-                     "and the CPUs of a local Ray instance)")
-    run.add_argument("--backend", choices=("local", "ray"), default="local",
-                     help="local processes (default) or Ray tasks")
-    run.add_argument("--address", default=None, metavar="ADDR",
-                     help="Ray cluster to join (auto, or HEAD:6379); default: start a local one")
+    run.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="parallel runs (local: processes, default 1; ray: runs in flight, "
+        "and the CPUs of a local Ray instance)",
+    )
+    run.add_argument(
+        "--backend",
+        choices=("local", "ray"),
+        default="local",
+        help="local processes (default) or Ray tasks",
+    )
+    run.add_argument(
+        "--address",
+        default=None,
+        metavar="ADDR",
+        help="Ray cluster to join (auto, or HEAD:6379); default: start a local one",
+    )
     run.set_defaults(func=_experiment_run)
 
     lst = exp_sub.add_parser("list", help="print the runs of an experiment file (and their status)")
@@ -96,8 +111,11 @@ def register(subparsers: Any) -> None:
         "DIR/figures/*.png and DIR/summary.csv.",
     )
     rep.add_argument("dir", metavar="DIR", help="output folder of 'tlac experiment run'")
-    rep.add_argument("--paper", action="store_true",
-                     help="show the paper's jumpstarts (Tables 1-3) beside ours where they exist")
+    rep.add_argument(
+        "--paper",
+        action="store_true",
+        help="show the paper's jumpstarts (Tables 1-3) beside ours where they exist",
+    )
     rep.set_defaults(func=_report)
 
 

@@ -215,16 +215,22 @@ class _Fields:
             raise self.error(path, f"expected a string, got {value!r}")
         return value
 
-    def choice(self, path: str, value: Any, kind: str, accepted: list[str] | tuple[str, ...]) -> str:
+    def choice(
+        self, path: str, value: Any, kind: str, accepted: list[str] | tuple[str, ...]
+    ) -> str:
         if value not in accepted:
-            raise self.error(path, f"unknown {kind} {value!r}; expected one of: {', '.join(accepted)}")
+            raise self.error(
+                path, f"unknown {kind} {value!r}; expected one of: {', '.join(accepted)}"
+            )
         return value
 
     def seeds(self, path: str, value: Any) -> tuple[int, ...]:
         if isinstance(value, int) and not isinstance(value, bool):
             return tuple(range(self.integer(path, value, 1)))
         if not isinstance(value, list) or not value:
-            raise self.error(path, f"expected a number of seeds or a non-empty list of seeds, got {value!r}")
+            raise self.error(
+                path, f"expected a number of seeds or a non-empty list of seeds, got {value!r}"
+            )
         seeds = tuple(self.integer(f"{path}[{i}]", s, 0) for i, s in enumerate(value))
         if len(set(seeds)) != len(seeds):
             raise self.error(path, f"seeds must be distinct, got {list(seeds)}")
@@ -238,7 +244,9 @@ def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
     """
     f = _Fields(source)
     if data is None:
-        raise ConfigError(f"{source}: the file is empty; expected a mapping with keys: {', '.join(TOP_KEYS)}")
+        raise ConfigError(
+            f"{source}: the file is empty; expected a mapping with keys: {', '.join(TOP_KEYS)}"
+        )
     top = f.mapping("", data, TOP_KEYS)
     for required in ("domain", "steps", "seeds", "algorithms"):
         if required not in top:
@@ -250,7 +258,9 @@ def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
     except TlacError as exc:
         raise f.error("domain", str(exc)) from exc
 
-    name = f.slug("name", top.get("name", Path(source).stem if source != "<experiment>" else "experiment"))
+    name = f.slug(
+        "name", top.get("name", Path(source).stem if source != "<experiment>" else "experiment")
+    )
     steps = f.integer("steps", top["steps"], 1)
     seeds = f.seeds("seeds", top["seeds"])
 
@@ -261,13 +271,21 @@ def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
         episodes=f.integer("eval.episodes", ev.get("episodes", 10), 0),
     )
     log_interval = f.integer("log_interval", top.get("log_interval", 2000), 1)
-    teacher_eval_episodes = f.integer("teacher_eval_episodes", top.get("teacher_eval_episodes", 20), 0)
+    teacher_eval_episodes = f.integer(
+        "teacher_eval_episodes", top.get("teacher_eval_episodes", 20), 0
+    )
 
     m = f.mapping("metrics", top.get("metrics") or {}, METRIC_KEYS)
     metrics = MetricSettings(
-        jumpstart_window=f.integer("metrics.jumpstart_window", m.get("jumpstart_window", 10_000), 1),
-        final_window=None if m.get("final_window") is None else f.integer("metrics.final_window", m["final_window"], 1),
-        threshold=None if m.get("threshold") is None else f.number("metrics.threshold", m["threshold"]),
+        jumpstart_window=f.integer(
+            "metrics.jumpstart_window", m.get("jumpstart_window", 10_000), 1
+        ),
+        final_window=None
+        if m.get("final_window") is None
+        else f.integer("metrics.final_window", m["final_window"], 1),
+        threshold=None
+        if m.get("threshold") is None
+        else f.number("metrics.threshold", m["threshold"]),
         curve_points=f.integer("metrics.curve_points", m.get("curve_points", 100), 2),
         bootstrap_reps=f.integer("metrics.bootstrap_reps", m.get("bootstrap_reps", 2000), 1),
         bootstrap_seed=f.integer("metrics.bootstrap_seed", m.get("bootstrap_seed", 0), 0),
@@ -276,7 +294,9 @@ def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
     # teacher sets: key -> [names] or {label, teachers}
     raw_sets = top.get("teacher_sets") or {}
     if not isinstance(raw_sets, dict):
-        raise f.error("teacher_sets", f"expected a mapping of set name -> list of teachers, got {raw_sets!r}")
+        raise f.error(
+            "teacher_sets", f"expected a mapping of set name -> list of teachers, got {raw_sets!r}"
+        )
     teacher_sets: list[TeacherSet] = []
     for key, value in raw_sets.items():
         path = f"teacher_sets.{key}"
@@ -325,19 +345,31 @@ def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
                 raise f.error(f"{path}.preset", str(exc)) from exc
         overrides = entry.get("overrides") or {}
         if not isinstance(overrides, dict):
-            raise f.error(f"{path}.overrides", f"expected a mapping of hyperparameter -> value, got {overrides!r}")
+            raise f.error(
+                f"{path}.overrides",
+                f"expected a mapping of hyperparameter -> value, got {overrides!r}",
+            )
         selector = "learned"
         if "selector" in entry:
             if algo != "tlac":
-                raise f.error(f"{path}.selector", f"only algorithm 'tlac' has a selector, not {algo!r}")
+                raise f.error(
+                    f"{path}.selector", f"only algorithm 'tlac' has a selector, not {algo!r}"
+                )
             selector = f.choice(f"{path}.selector", entry["selector"], "selector", SELECTORS)
-        algo_seeds = None if entry.get("seeds") is None else f.seeds(f"{path}.seeds", entry["seeds"])
+        algo_seeds = (
+            None if entry.get("seeds") is None else f.seeds(f"{path}.seeds", entry["seeds"])
+        )
         algo_sets = None
         if entry.get("teacher_sets") is not None:
             if algo in NO_ADVICE:
-                raise f.error(f"{path}.teacher_sets", f"{algo!r} takes no teachers (a no-advice baseline)")
+                raise f.error(
+                    f"{path}.teacher_sets", f"{algo!r} takes no teachers (a no-advice baseline)"
+                )
             if not isinstance(entry["teacher_sets"], list):
-                raise f.error(f"{path}.teacher_sets", f"expected a list of teacher-set names, got {entry['teacher_sets']!r}")
+                raise f.error(
+                    f"{path}.teacher_sets",
+                    f"expected a list of teacher-set names, got {entry['teacher_sets']!r}",
+                )
             algo_sets = tuple(
                 f.choice(f"{path}.teacher_sets[{j}]", k, "teacher set", set_keys)
                 for j, k in enumerate(entry["teacher_sets"])
@@ -347,20 +379,33 @@ def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
         else:
             key = algo if selector == "learned" else f"{algo}__{selector}"
         if any(a.key == key for a in algorithms):
-            raise f.error(path, f"algorithm {key!r} appears twice; give one of them a distinct 'label'")
+            raise f.error(
+                path, f"algorithm {key!r} appears twice; give one of them a distinct 'label'"
+            )
         algorithms.append(
             AlgorithmEntry(
-                name=algo, key=key, preset=preset, overrides=dict(overrides), selector=selector,
-                seeds=algo_seeds, teacher_sets=algo_sets,
+                name=algo,
+                key=key,
+                preset=preset,
+                overrides=dict(overrides),
+                selector=selector,
+                seeds=algo_seeds,
+                teacher_sets=algo_sets,
             )
         )
         if algo not in NO_ADVICE and not teacher_sets:
-            raise f.error("teacher_sets", f"algorithm {algo!r} needs teachers but no teacher set is declared")
+            raise f.error(
+                "teacher_sets", f"algorithm {algo!r} needs teachers but no teacher set is declared"
+            )
 
     baseline = top.get("baseline")
     if baseline is not None:
-        f.choice("baseline", baseline, "baseline algorithm (one of the no-advice entries in 'algorithms')",
-                 [a.key for a in algorithms if a.no_advice])
+        f.choice(
+            "baseline",
+            baseline,
+            "baseline algorithm (one of the no-advice entries in 'algorithms')",
+            [a.key for a in algorithms if a.no_advice],
+        )
     else:
         no_advice = [a.key for a in algorithms if a.no_advice]
         baseline = no_advice[0] if no_advice else None

@@ -61,7 +61,15 @@ def expand_grid(config: ExperimentConfig) -> list[GridRun]:
                     eval_episodes=config.eval.episodes,
                     log_interval=config.log_interval,
                 )
-                runs.append(GridRun(run_name(config.domain, set_key, algo.key, seed), set_key, algo.key, seed, spec))
+                runs.append(
+                    GridRun(
+                        run_name(config.domain, set_key, algo.key, seed),
+                        set_key,
+                        algo.key,
+                        seed,
+                        spec,
+                    )
+                )
     return runs
 
 

@@ -52,13 +52,17 @@ def initial_performance(timesteps: ArrayLike, returns: ArrayLike, window: float 
     return window_mean(timesteps, returns, -np.inf, window)
 
 
-def final_performance(timesteps: ArrayLike, returns: ArrayLike, total_steps: float, window: float) -> float:
+def final_performance(
+    timesteps: ArrayLike, returns: ArrayLike, total_steps: float, window: float
+) -> float:
     """Mean training return over the last ``window`` steps of a ``total_steps`` run
     (Taylor & Stone's asymptotic performance, measured at the end of the budget)."""
     return window_mean(timesteps, returns, total_steps - window, np.inf)
 
 
-def jumpstart(runs: Sequence[Episodes], baseline_runs: Sequence[Episodes], window: float = 10_000) -> float:
+def jumpstart(
+    runs: Sequence[Episodes], baseline_runs: Sequence[Episodes], window: float = 10_000
+) -> float:
     """Jumpstart (Taylor & Stone 2009): initial performance with advice minus initial performance
     of the no-advice baseline, each averaged over its runs (seeds) first. The initial
     performance of a run is its mean training return over the first ``window`` steps

@@ -50,10 +50,19 @@ def plot_curves(
     for j, (name, value) in enumerate((references or {}).items()):
         if value is None or not np.isfinite(value):
             continue
-        ax.axhline(value, color="0.45", linewidth=0.9, linestyle=LINESTYLES[(j + 1) % len(LINESTYLES)])
+        ax.axhline(
+            value, color="0.45", linewidth=0.9, linestyle=LINESTYLES[(j + 1) % len(LINESTYLES)]
+        )
         ax.annotate(
-            f"{name} {value:.3g}", xy=(1.0, value), xycoords=("axes fraction", "data"),
-            xytext=(-2, 2), textcoords="offset points", ha="right", va="bottom", fontsize=7, color="0.3",
+            f"{name} {value:.3g}",
+            xy=(1.0, value),
+            xycoords=("axes fraction", "data"),
+            xytext=(-2, 2),
+            textcoords="offset points",
+            ha="right",
+            va="bottom",
+            fontsize=7,
+            color="0.3",
         )
     ax.set_title(title, fontsize=10)
     ax.set_xlabel(xlabel)
@@ -63,7 +72,9 @@ def plot_curves(
     return ax
 
 
-def plot_usage(ax: Axes, usage: pd.DataFrame, title: str = "", choices: Sequence[str] | None = None) -> Axes:
+def plot_usage(
+    ax: Axes, usage: pd.DataFrame, title: str = "", choices: Sequence[str] | None = None
+) -> Axes:
     """Reuse frequency of each choice (a teacher, or ``agent``) over training in one region
     (paper, Figures 10 and 12). ``usage`` has columns ``step, choice, fraction``."""
     names = list(choices) if choices is not None else sorted(usage["choice"].unique())
@@ -72,7 +83,15 @@ def plot_usage(ax: Axes, usage: pd.DataFrame, title: str = "", choices: Sequence
         if part.empty:
             continue
         every = max(1, len(part) // 8)
-        ax.plot(part["step"], part["fraction"], label=name, linewidth=1.4, markevery=every, markersize=4, **style(i))
+        ax.plot(
+            part["step"],
+            part["fraction"],
+            label=name,
+            linewidth=1.4,
+            markevery=every,
+            markersize=4,
+            **style(i),
+        )
     ax.set_ylim(-0.02, 1.02)
     ax.set_title(title, fontsize=10)
     ax.set_xlabel("environment steps")
@@ -96,7 +115,16 @@ def plot_interval_estimates(
     y = np.arange(len(labels))
     for i, (p, lo, hi) in enumerate(zip(points, lows, highs, strict=True)):
         st = style(i)
-        ax.barh(i, hi - lo, left=lo, height=0.5, color=st["color"], alpha=0.45, edgecolor="black", linewidth=0.6)
+        ax.barh(
+            i,
+            hi - lo,
+            left=lo,
+            height=0.5,
+            color=st["color"],
+            alpha=0.45,
+            edgecolor="black",
+            linewidth=0.6,
+        )
         ax.plot([p, p], [i - 0.3, i + 0.3], color="black", linewidth=2)
     ax.set_yticks(y, list(labels))
     ax.set_xlabel(xlabel)

@@ -82,8 +82,13 @@ def load_experiment(out_dir: str | Path) -> tuple[ExperimentConfig, list[RunData
                 run=r,
                 status=status,
                 episodes=_read_csv(folder / "episodes.csv", ["timestep", "return", "length"]),
-                evals=_read_csv(folder / "eval.csv", ["timestep", "mean_return", "std_return", "episodes"]),
-                usage=_read_csv(folder / "teacher_usage.csv", ["timestep", "region", "choice", "count", "fraction"]),
+                evals=_read_csv(
+                    folder / "eval.csv", ["timestep", "mean_return", "std_return", "episodes"]
+                ),
+                usage=_read_csv(
+                    folder / "teacher_usage.csv",
+                    ["timestep", "region", "choice", "count", "fraction"],
+                ),
                 result=result,
                 error=error,
             )
@@ -186,7 +191,8 @@ class _Report:
     # ---------------------------------------------------------------- helpers
     def finished(self, set_key: str | None = None, algo: str | None = None) -> list[RunData]:
         return [
-            d for d in self.runs
+            d
+            for d in self.runs
             if d.status == "finished"
             and (set_key is None or d.run.teacher_set == set_key)
             and (algo is None or d.run.algo == algo)
@@ -248,7 +254,9 @@ class _Report:
     def jumpstart_section(self) -> None:
         c = self.config
         if c.baseline is None:
-            self.sections.append("## Jumpstart\n\nNo no-advice baseline in the grid: jumpstart not computed.")
+            self.sections.append(
+                "## Jumpstart\n\nNo no-advice baseline in the grid: jumpstart not computed."
+            )
             return
         base = [self.episodes(d) for d in self.finished(NO_TEACHERS, c.baseline)]
         paper_rows: dict[str, Any] = {}
@@ -267,7 +275,9 @@ class _Report:
                 js = M.jumpstart([self.episodes(d) for d in runs], base, c.metrics.jumpstart_window)
                 cell = fmt(js)
                 # the paper's cells are plain algorithms (learned high level, no custom label)
-                paper_value = paper_rows.get(s, {}).get(a) if a == self.config.algorithm(a).name else None
+                paper_value = (
+                    paper_rows.get(s, {}).get(a) if a == self.config.algorithm(a).name else None
+                )
                 if self.paper and paper_value is not None:
                     cell += f" (paper {fmt(paper_value)})"
                 row.append(cell)
@@ -286,18 +296,35 @@ class _Report:
 
     def performance_section(self) -> None:
         c = self.config
-        header = ["teacher set", "algorithm", "final training return", "student alone (final)",
-                  "mean return over training (AUC / steps)"]
+        header = [
+            "teacher set",
+            "algorithm",
+            "final training return",
+            "student alone (final)",
+            "mean return over training (AUC / steps)",
+        ]
         if c.metrics.threshold is not None:
             header.append(f"steps to reach {fmt(c.metrics.threshold)}")
         rows = []
         for s, a in self.cells():
-            part = self.summary[(self.summary.teacher_set == s) & (self.summary.algo == a)] if len(self.summary) else self.summary
+            part = (
+                self.summary[(self.summary.teacher_set == s) & (self.summary.algo == a)]
+                if len(self.summary)
+                else self.summary
+            )
             if len(part) == 0:
-                rows.append([_label(c, s), f"`{a}`", "no finished run", "", ""] + ([""] if c.metrics.threshold is not None else []))
+                rows.append(
+                    [_label(c, s), f"`{a}`", "no finished run", "", ""]
+                    + ([""] if c.metrics.threshold is not None else [])
+                )
                 continue
-            row = [_label(c, s), f"`{a}`", fmt_mean_std(part.final_return), fmt_mean_std(part.student_final_return),
-                   fmt_mean_std(part.auc_mean_return)]
+            row = [
+                _label(c, s),
+                f"`{a}`",
+                fmt_mean_std(part.final_return),
+                fmt_mean_std(part.student_final_return),
+                fmt_mean_std(part.auc_mean_return),
+            ]
             if c.metrics.threshold is not None:
                 mean, _ = self.mean_curve(self.finished(s, a))
                 ttt = M.time_to_threshold(self.grid, mean, c.metrics.threshold)
@@ -316,7 +343,12 @@ class _Report:
         import matplotlib.pyplot as plt
 
         c = self.config
-        header = ["algorithm", "IQM final training return [95% CI]", "IQM student alone [95% CI]", "runs"]
+        header = [
+            "algorithm",
+            "IQM final training return [95% CI]",
+            "IQM student alone [95% CI]",
+            "runs",
+        ]
         rows, labels, est = [], [], {"final_return": [], "student_final_return": []}
         for a in self.algo_order:
             part = self.summary[self.summary.algo == a]
@@ -326,7 +358,9 @@ class _Report:
             cells = []
             for col in ("final_return", "student_final_return"):
                 tasks = [g[col].dropna().to_numpy(float) for _, g in part.groupby("teacher_set")]
-                p, lo, hi = M.stratified_bootstrap_ci(tasks, M.iqm, c.metrics.bootstrap_reps, 0.95, c.metrics.bootstrap_seed)
+                p, lo, hi = M.stratified_bootstrap_ci(
+                    tasks, M.iqm, c.metrics.bootstrap_reps, 0.95, c.metrics.bootstrap_seed
+                )
                 est[col].append((p, lo, hi))
                 cells.append(f"{fmt(p)} [{fmt(lo)}, {fmt(hi)}]")
             rows.append([f"`{a}`"] + cells + [str(len(part))])
@@ -337,8 +371,14 @@ class _Report:
             "Agarwal et al. 2021.\n\n" + _markdown_table(header, rows)
         )
         fig, axes = plt.subplots(1, 2, figsize=(9, 0.6 * len(labels) + 1.6), sharey=True)
-        for ax, (col, xlabel) in zip(axes, [("final_return", "IQM final training return"),
-                                            ("student_final_return", "IQM student-alone return")], strict=True):
+        for ax, (col, xlabel) in zip(
+            axes,
+            [
+                ("final_return", "IQM final training return"),
+                ("student_final_return", "IQM student-alone return"),
+            ],
+            strict=True,
+        ):
             p, lo, hi = zip(*est[col], strict=True) if est[col] else ((), (), ())
             from tlac.experiments.plots import plot_interval_estimates
 
@@ -355,7 +395,9 @@ class _Report:
                 refs[f"teacher {kind}"] = float(info["mean"])
         return refs
 
-    def curves_figure(self, algos: list[str], name: str, caption: str, with_baseline: bool = True) -> None:
+    def curves_figure(
+        self, algos: list[str], name: str, caption: str, with_baseline: bool = True
+    ) -> None:
         import matplotlib.pyplot as plt
 
         from tlac.experiments.plots import plot_curves
@@ -377,9 +419,11 @@ class _Report:
             if base_runs:
                 curves[f"{c.baseline} (no advice, n={len(base_runs)})"] = self.mean_curve(base_runs)
             styles = {k: self.styles.get(k.split(" ")[0], 0) for k in curves}
-            plot_curves(ax, self.grid, curves, self._references(s), title=_label(c, s), styles=styles)
-            ax.legend(fontsize=7, loc="lower right")
-        for ax in list(axes.flat)[len(sets):]:
+            plot_curves(
+                ax, self.grid, curves, self._references(s), title=_label(c, s), styles=styles
+            )
+            ax.legend(fontsize=7, loc="best")
+        for ax in list(axes.flat)[len(sets) :]:
             ax.set_visible(False)
         self.save(fig, name, caption)
 
@@ -406,17 +450,31 @@ class _Report:
             if base_runs:
                 groups.append((c.baseline, base_runs))
             for a, runs in groups:
-                ev = [M.interpolated_curve(d.evals["timestep"], d.evals["mean_return"], grid) for d in runs if len(d.evals)]
+                ev = [
+                    M.interpolated_curve(d.evals["timestep"], d.evals["mean_return"], grid)
+                    for d in runs
+                    if len(d.evals)
+                ]
                 if ev:
                     curves[f"{a} (n={len(ev)})"] = M.mean_std(np.array(ev))
             styles = {k: self.styles.get(k.split(" ")[0], 0) for k in curves}
-            plot_curves(ax, grid, curves, self._references(s), title=_label(c, s),
-                        ylabel="student-alone return per episode", styles=styles)
-            ax.legend(fontsize=7, loc="lower right")
-        for ax in list(axes.flat)[len(sets):]:
+            plot_curves(
+                ax,
+                grid,
+                curves,
+                self._references(s),
+                title=_label(c, s),
+                ylabel="student-alone return per episode",
+                styles=styles,
+            )
+            ax.legend(fontsize=7, loc="best")
+        for ax in list(axes.flat)[len(sets) :]:
             ax.set_visible(False)
-        self.save(fig, "student_alone.png",
-                  f"The student alone (no teacher): mean ± std over seeds of {c.eval.episodes}-episode evaluations")
+        self.save(
+            fig,
+            "student_alone.png",
+            f"The student alone (no teacher): mean ± std over seeds of {c.eval.episodes}-episode evaluations",
+        )
 
     def usage_figures(self) -> None:
         import matplotlib.pyplot as plt
@@ -431,15 +489,22 @@ class _Report:
                     continue
                 freq = M.reuse_frequency(pd.concat(frames, ignore_index=True), bin_width)
                 regions = [r for r in freq["region"].unique() if r != "all"] or ["all"]
-                fig, axes = plt.subplots(1, len(regions), figsize=(4.6 * len(regions), 3.4), squeeze=False)
+                fig, axes = plt.subplots(
+                    1, len(regions), figsize=(4.6 * len(regions), 3.4), squeeze=False
+                )
                 choices = list(dict.fromkeys(pd.concat(frames)["choice"]))
                 for ax, region in zip(axes.flat, regions, strict=True):
-                    plot_usage(ax, freq[freq.region == region], title=f"region: {region}", choices=choices)
+                    plot_usage(
+                        ax, freq[freq.region == region], title=f"region: {region}", choices=choices
+                    )
                 axes.flat[0].legend(fontsize=7)
                 fig.suptitle(f"{a}, {_label(self.config, s)}: teacher usage", fontsize=10)
-                self.save(fig, f"usage__{s}__{a}.png",
-                          f"Teacher reuse frequency per region over training, `{a}` with {_label(self.config, s)} "
-                          f"(pooled over {len(frames)} seed(s); paper Figures 10, 12)")
+                self.save(
+                    fig,
+                    f"usage__{s}__{a}.png",
+                    f"Teacher reuse frequency per region over training, `{a}` with {_label(self.config, s)} "
+                    f"(pooled over {len(frames)} seed(s); paper Figures 10, 12)",
+                )
 
     def write(self) -> Path:
         self.status_section()
@@ -447,16 +512,23 @@ class _Report:
         self.performance_section()
         self.iqm_section()
         self.sections.append("## Learning curves")
-        self.curves_figure(self.advice_algos, "curves.png",
-                           "Mean training return over seeds (± std bands) per teacher set; horizontal lines: "
-                           "each teacher's own return (paper, Figures 3-9)")
+        self.curves_figure(
+            self.advice_algos,
+            "curves.png",
+            "Mean training return over seeds (± std bands) per teacher set; horizontal lines: "
+            "each teacher's own return (paper, Figures 3-9)",
+        )
         self.student_figure()
         tlac_variants = [a.key for a in self.config.algorithms if a.name == "tlac"]
         if len({self.config.algorithm(k).selector for k in tlac_variants}) > 1:
             self.sections.append("## Ablation of the high level")
-            self.curves_figure(tlac_variants, "ablation.png",
-                               "TL-AC's learned high level against random selection and UCB1 per episode "
-                               "(paper, Figure 11)", with_baseline=False)
+            self.curves_figure(
+                tlac_variants,
+                "ablation.png",
+                "TL-AC's learned high level against random selection and UCB1 per episode "
+                "(paper, Figure 11)",
+                with_baseline=False,
+            )
         self.sections.append("## Teacher usage")
         self.usage_figures()
         if len(self.summary):

@@ -128,7 +128,9 @@ def evaluate_teachers(config: ExperimentConfig, out: Path) -> dict[str, Any]:
         env = domain.make_env()
         try:
             teacher = domain.make_teacher(kind, env, 0)
-            returns = evaluate_policy(teacher.predict, domain, config.teacher_eval_episodes, seed=20_000)
+            returns = evaluate_policy(
+                teacher.predict, domain, config.teacher_eval_episodes, seed=20_000
+            )
             data[kind] = {
                 "mean": float(returns.mean()),
                 "std": float(returns.std()),
@@ -183,11 +185,18 @@ def execute_run(name: str, spec_dict: dict[str, Any], folder: str) -> dict[str, 
         result = train_run(RunSpec(**spec_dict), out)
     except Exception as exc:
         atomic_write_text(out / ERROR_FILE, traceback.format_exc())
-        return {"name": name, "status": "failed", "error": _one_line(exc), "wall": time.time() - start}
+        return {
+            "name": name,
+            "status": "failed",
+            "error": _one_line(exc),
+            "wall": time.time() - start,
+        }
     return {"name": name, "status": "finished", "result": result, "wall": time.time() - start}
 
 
-def execute_run_packed(name: str, spec_dict: dict[str, Any], algorithms: dict[str, str]) -> dict[str, Any]:
+def execute_run_packed(
+    name: str, spec_dict: dict[str, Any], algorithms: dict[str, str]
+) -> dict[str, Any]:
     """Ray task: train into a temporary folder on this node and return it packed (tar.gz
     bytes, ``result.json`` excluded and returned as a dict) for the driver to write."""
     _init_worker(algorithms)
@@ -248,7 +257,9 @@ class Display:
     prints one line per finished or failed run.
     """
 
-    def __init__(self, todo: list[GridRun], skipped: int, out: Path, workers: int, live: bool | None = None):
+    def __init__(
+        self, todo: list[GridRun], skipped: int, out: Path, workers: int, live: bool | None = None
+    ):
         from rich.console import Console
 
         self.todo = {r.name: r for r in todo}
@@ -256,7 +267,7 @@ class Display:
         self.skipped = skipped
         self.out = out
         self.workers = workers
-        self.console = Console(stderr=True)
+        self.console = Console(stderr=True, soft_wrap=True)
         self.live_mode = self.console.is_terminal if live is None else live
         self.running: set[str] = set()
         self.done: set[str] = set()
@@ -269,7 +280,9 @@ class Display:
         if self.live_mode:
             from rich.live import Live
 
-            self._live = Live(self._render(), console=self.console, refresh_per_second=2, transient=False)
+            self._live = Live(
+                self._render(), console=self.console, refresh_per_second=2, transient=False
+            )
             self._live.__enter__()
         else:
             self.console.print(
@@ -286,7 +299,10 @@ class Display:
     def steps_done(self, peek_running: bool) -> int:
         steps = sum(self.todo[n].spec.steps for n in self.done | self.failed)
         if peek_running:
-            steps += sum(min(latest_step(run_dir(self.out, n)), self.todo[n].spec.steps) for n in self.running)
+            steps += sum(
+                min(latest_step(run_dir(self.out, n)), self.todo[n].spec.steps)
+                for n in self.running
+            )
         return steps
 
     def eta(self, peek_running: bool = True) -> float | None:
@@ -309,7 +325,10 @@ class Display:
         )
         for name in sorted(self.running):
             step = latest_step(run_dir(self.out, name)) if self.peek else 0
-            text.append(f"\n  running {name}" + (f"  step {step:,}/{self.todo[name].spec.steps:,}" if self.peek else ""))
+            text.append(
+                f"\n  running {name}"
+                + (f"  step {step:,}/{self.todo[name].spec.steps:,}" if self.peek else "")
+            )
         return text
 
     peek = True
@@ -375,7 +394,10 @@ def run_local(
 
         ctx = multiprocessing.get_context("spawn")
         pool = ProcessPoolExecutor(
-            max_workers=min(workers, len(todo)), mp_context=ctx, initializer=_init_worker, initargs=(_registry(),)
+            max_workers=min(workers, len(todo)),
+            mp_context=ctx,
+            initializer=_init_worker,
+            initargs=(_registry(),),
         )
         futures: dict[Future[dict[str, Any]], GridRun] = {}
         queue = list(todo)
@@ -386,7 +408,9 @@ def run_local(
                     # keep exactly `workers` runs in flight, so "running" is what really runs
                     while queue and len(futures) < workers:
                         r = queue.pop(0)
-                        futures[pool.submit(execute_run, r.name, asdict(r.spec), str(run_dir(out, r)))] = r
+                        futures[
+                            pool.submit(execute_run, r.name, asdict(r.spec), str(run_dir(out, r)))
+                        ] = r
                         display.started(r.name)
 
                 submit_more()
@@ -397,7 +421,11 @@ def run_local(
                         try:
                             outcome = fut.result()
                         except Exception as exc:  # the worker process died (e.g. out of memory)
-                            outcome = {"status": "failed", "error": f"worker died: {_one_line(exc)}", "wall": 0.0}
+                            outcome = {
+                                "status": "failed",
+                                "error": f"worker died: {_one_line(exc)}",
+                                "wall": 0.0,
+                            }
                             folder = run_dir(out, r)
                             folder.mkdir(parents=True, exist_ok=True)
                             atomic_write_text(folder / ERROR_FILE, outcome["error"] + "\n")
@@ -454,7 +482,11 @@ def run_ray(
         summary = GridSummary(total=len(todo) + skipped, skipped=skipped)
         if not todo:
             return summary
-        kwargs: dict[str, Any] = {"include_dashboard": False, "ignore_reinit_error": True, "log_to_driver": False}
+        kwargs: dict[str, Any] = {
+            "include_dashboard": False,
+            "ignore_reinit_error": True,
+            "log_to_driver": False,
+        }
         if address is None:
             kwargs["num_cpus"] = workers or os.cpu_count() or 1
         else:
@@ -483,7 +515,10 @@ def run_ray(
                             outcome = ray.get(ref)
                             unpack_run(outcome, run_dir(out, r))
                         except Exception as exc:  # task lost (node died, ...) or unpacking failed
-                            outcome = {"status": "failed", "error": f"ray task failed: {_one_line(exc)}"}
+                            outcome = {
+                                "status": "failed",
+                                "error": f"ray task failed: {_one_line(exc)}",
+                            }
                             folder = run_dir(out, r)
                             folder.mkdir(parents=True, exist_ok=True)
                             atomic_write_text(folder / ERROR_FILE, traceback.format_exc())

@@ -1,0 +1,392 @@
+"""Experiment files, grid expansion, the local and Ray runners, kill-and-resume, and reports.
+
+The grids are tiny real DoorKey grids (TL-AC and the no-advice PPO baseline, 1000 steps per
+run) so that the whole file stays around a minute or two on two CPU cores.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+from tlac.errors import ConfigError
+from tlac.experiments.config import load_config, parse_config
+from tlac.experiments.grid import expand_grid, run_status
+from tlac.experiments.report import fmt, write_report
+from tlac.experiments.runner import run_local, run_ray
+
+ROOT = Path(__file__).resolve().parents[1]
+TINY = ROOT / "configs" / "tiny-doorkey.yaml"
+
+
+def write_yaml(path: Path, data: dict) -> Path:
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return path
+
+
+def base_config(**changes: object) -> dict:
+    data: dict = {
+        "domain": "doorkey",
+        "steps": 1000,
+        "seeds": 2,
+        "teacher_sets": {
+            "1optimal": ["optimal"],
+            "opt-rand": {"label": "o+r", "teachers": ["optimal", "random"]},
+        },
+        "algorithms": [{"name": "tlac"}, {"name": "ppo"}],
+    }
+    data.update(changes)
+    return data
+
+
+# --------------------------------------------------------------------------- validation
+
+
+@pytest.mark.parametrize(
+    ("changes", "expected"),
+    [
+        (
+            {"stepz": 5},
+            ["field 'stepz'", "unknown key 'stepz'", "expected one of: name, description, domain"],
+        ),
+        (
+            {"domain": "doorlock"},
+            [
+                "field 'domain'",
+                "unknown domain 'doorlock'",
+                "doorkey, hopper-bullet, hopper, pickplace",
+            ],
+        ),
+        (
+            {"algorithms": [{"name": "tlac"}, {"name": "foo"}]},
+            [
+                "field 'algorithms[1].name'",
+                "unknown algorithm 'foo'",
+                "expected one of: tlac, ppo, a2c, dqn-tlql, ac-teach",
+            ],
+        ),
+        (
+            {"teacher_sets": {"x": ["optimal", "excellent"]}},
+            [
+                "field 'teacher_sets.x[1]'",
+                "unknown teacher for doorkey 'excellent'",
+                "optimal",
+                "random",
+            ],
+        ),
+        (
+            {"algorithms": [{"name": "tlac", "selecter": "ucb1"}]},
+            ["field 'algorithms[0].selecter'", "unknown key", "selector"],
+        ),
+        (
+            {"algorithms": [{"name": "tlac", "selector": "greedy"}]},
+            [
+                "field 'algorithms[0].selector'",
+                "unknown selector 'greedy'",
+                "learned, random, ucb1",
+            ],
+        ),
+        (
+            {"algorithms": [{"name": "ppo", "selector": "ucb1"}]},
+            ["only algorithm 'tlac' has a selector"],
+        ),
+        ({"seeds": [0, 0]}, ["field 'seeds'", "distinct"]),
+        ({"steps": "5e5"}, ["field 'steps'", "expected an integer >= 1"]),
+        (
+            {"eval": {"every": 100, "episode": 3}},
+            ["field 'eval.episode'", "unknown key", "every, episodes"],
+        ),
+        ({"metrics": {"window": 3}}, ["field 'metrics.window'", "jumpstart_window"]),
+        ({"baseline": "tlac"}, ["field 'baseline'", "expected one of: ppo"]),
+        ({"algorithms": [{"name": "tlac"}, {"name": "tlac"}]}, ["appears twice", "label"]),
+        (
+            {"algorithms": [{"name": "tlac", "teacher_sets": ["nope"]}]},
+            [
+                "field 'algorithms[0].teacher_sets[0]'",
+                "unknown teacher set 'nope'",
+                "1optimal, opt-rand",
+            ],
+        ),
+        ({"teacher_sets": {"bad__name": ["optimal"]}}, ["field 'teacher_sets.bad__name'"]),
+        (
+            {"algorithms": [{"name": "tlac", "preset": "nopreset"}]},
+            ["field 'algorithms[0].preset'", "unknown preset"],
+        ),
+    ],
+)
+def test_bad_configs_name_file_field_and_accepted(
+    tmp_path: Path, changes: dict, expected: list[str]
+) -> None:
+    path = write_yaml(tmp_path / "bad.yaml", base_config(**changes))
+    with pytest.raises(ConfigError) as info:
+        load_config(path)
+    message = str(info.value)
+    assert message.startswith(f"{path}: ")
+    for part in expected:
+        assert part in message
+
+
+def test_missing_required_field_and_missing_file(tmp_path: Path) -> None:
+    data = base_config()
+    del data["steps"]
+    with pytest.raises(ConfigError, match=r"field 'steps': missing \(required\)"):
+        load_config(write_yaml(tmp_path / "x.yaml", data))
+    with pytest.raises(ConfigError, match="experiment file not found"):
+        load_config(tmp_path / "nope.yaml")
+    (tmp_path / "broken.yaml").write_text("domain: [doorkey\n")
+    with pytest.raises(ConfigError, match="not valid YAML"):
+        load_config(tmp_path / "broken.yaml")
+
+
+def test_grid_expansion_names_and_baseline_once_per_seed() -> None:
+    data = base_config(
+        seeds=[3, 4],
+        algorithms=[
+            {"name": "tlac"},
+            {"name": "tlac", "selector": "ucb1", "teacher_sets": ["opt-rand"]},
+            {
+                "name": "tlac",
+                "label": "tlac-small",
+                "overrides": {"learning_rate": 1e-4},
+                "seeds": [9],
+            },
+            {"name": "ppo"},
+        ],
+    )
+    config = parse_config(data, "mem.yaml")
+    runs = expand_grid(config)
+    names = [r.name for r in runs]
+    assert names == [
+        "doorkey__none__ppo__seed3",
+        "doorkey__none__ppo__seed4",
+        "doorkey__1optimal__tlac__seed3",
+        "doorkey__1optimal__tlac__seed4",
+        "doorkey__1optimal__tlac-small__seed9",
+        "doorkey__opt-rand__tlac__seed3",
+        "doorkey__opt-rand__tlac__seed4",
+        "doorkey__opt-rand__tlac__ucb1__seed3",
+        "doorkey__opt-rand__tlac__ucb1__seed4",
+        "doorkey__opt-rand__tlac-small__seed9",
+    ]
+    by_name = {r.name: r for r in runs}
+    assert by_name["doorkey__none__ppo__seed3"].spec.teachers == []
+    assert by_name["doorkey__opt-rand__tlac__ucb1__seed4"].spec.selector == "ucb1"
+    assert by_name["doorkey__opt-rand__tlac__ucb1__seed4"].spec.teachers == ["optimal", "random"]
+    assert by_name["doorkey__1optimal__tlac-small__seed9"].spec.overrides == {"learning_rate": 1e-4}
+    assert config.baseline == "ppo"
+
+
+def test_shipped_configs_load() -> None:
+    files = sorted((ROOT / "configs").glob("*.yaml"))
+    assert TINY in files
+    for path in files:
+        try:
+            config = load_config(path)
+        except ConfigError as exc:
+            if "dependencies are not installed" in str(exc):
+                continue  # optional continuous-control domain
+            raise
+        assert expand_grid(config)
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def initial_mean(run_dir: Path, window: int) -> float:
+    ep = pd.read_csv(run_dir / "episodes.csv")
+    return float(ep.loc[ep.timestep <= window, "return"].mean())
+
+
+def snapshot(folder: Path) -> dict[str, tuple[int, str]]:
+    return {
+        str(p.relative_to(folder)): (
+            p.stat().st_mtime_ns,
+            hashlib.sha256(p.read_bytes()).hexdigest(),
+        )
+        for p in sorted(folder.rglob("*"))
+        if p.is_file()
+    }
+
+
+def check_report(out: Path, paper: bool = True) -> str:
+    config = load_config(TINY)
+    report = write_report(out, paper=paper)
+    text = report.read_text()
+    for name in (
+        "curves.png",
+        "student_alone.png",
+        "iqm.png",
+        "usage__1optimal__tlac.png",
+        "usage__1optimal-1random__tlac.png",
+    ):
+        png = out / "figures" / name
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
+    # the jumpstart cells hold the runs' numbers, recomputed here straight from episodes.csv
+    window = config.metrics.jumpstart_window
+    base = np.mean(
+        [initial_mean(out / "runs" / f"doorkey__none__ppo__seed{s}", window) for s in (0, 1)]
+    )
+    js = pd.read_csv(out / "jumpstart.csv").set_index("teacher_set")
+    for key, paper_value in (("1optimal", 0.81), ("1optimal-1random", 0.73)):
+        ours = np.mean(
+            [initial_mean(out / "runs" / f"doorkey__{key}__tlac__seed{s}", window) for s in (0, 1)]
+        )
+        assert js.loc[key, "jumpstart"] == pytest.approx(ours - base)
+        assert f"{fmt(ours - base)} (paper {fmt(paper_value)})" in text
+    summary = pd.read_csv(out / "summary.csv").set_index("run")
+    assert len(summary) == 6
+    for run in summary.index:
+        ep = pd.read_csv(out / "runs" / run / "episodes.csv")
+        last = ep.loc[ep.timestep > config.steps - 500, "return"]
+        expected = float(last.mean()) if len(last) else float("nan")
+        assert summary.loc[run, "final_return"] == pytest.approx(expected, nan_ok=True)
+    return text
+
+
+# --------------------------------------------------------------------------- runners
+
+
+def test_tiny_grid_local_runner_and_report(tmp_path: Path) -> None:
+    out = tmp_path / "local"
+    config = load_config(TINY)
+    summary = run_local(config, out, workers=2, live=False)
+    assert summary.ok, summary.lines()
+    assert summary.total == 6 and len(summary.finished) == 6 and summary.skipped == 0
+    for r in expand_grid(config):
+        assert run_status(out / "runs" / r.name) == "finished"
+    assert (out / "experiment.yaml").exists() and (out / "teachers.json").exists()
+    text = check_report(out)
+    assert "6 finished, 0 failed" in text
+
+    # running again skips every finished run and touches none of them
+    before = {r.name: snapshot(out / "runs" / r.name) for r in expand_grid(config)}
+    again = run_local(config, out, workers=2, live=False)
+    assert again.skipped == 6 and not again.finished
+    assert before == {r.name: snapshot(out / "runs" / r.name) for r in expand_grid(config)}
+
+
+def test_failed_run_is_reported_and_others_continue(tmp_path: Path) -> None:
+    data = base_config(
+        steps=300,
+        seeds=[0],
+        eval={"episodes": 0},
+        teacher_eval_episodes=0,
+        teacher_sets={"1optimal": ["optimal"]},
+        algorithms=[
+            {"name": "tlac", "label": "broken", "overrides": {"batch_size": 999}},
+            {"name": "tlac"},
+        ],
+    )
+    config = load_config(write_yaml(tmp_path / "fail.yaml", data))
+    events: list[tuple[str, str]] = []
+    summary = run_local(
+        config,
+        tmp_path / "out",
+        workers=1,
+        live=False,
+        on_event=lambda status, name: events.append((status, name)),
+    )
+    assert list(summary.failed) == ["doorkey__1optimal__broken__seed0"]
+    assert "batch_size 999" in summary.failed["doorkey__1optimal__broken__seed0"]
+    assert summary.finished == ["doorkey__1optimal__tlac__seed0"]
+    assert events == [
+        ("failed", "doorkey__1optimal__broken__seed0"),
+        ("finished", "doorkey__1optimal__tlac__seed0"),
+    ]
+    err = tmp_path / "out" / "runs" / "doorkey__1optimal__broken__seed0" / "error.txt"
+    assert "Traceback" in err.read_text()
+    assert run_status(err.parent) == "failed"
+
+
+def test_kill_and_resume(tmp_path: Path) -> None:
+    data = base_config(
+        steps=1500,
+        seeds=[0, 1, 2],
+        eval={"episodes": 0},
+        teacher_eval_episodes=0,
+        teacher_sets={"1optimal": ["optimal"]},
+        algorithms=[{"name": "tlac"}],
+    )
+    cfg_path = write_yaml(tmp_path / "resume.yaml", data)
+    config = load_config(cfg_path)
+    out = tmp_path / "out"
+    names = [r.name for r in expand_grid(config)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "tlac.experiments.cli",
+        "experiment",
+        "run",
+        str(cfg_path),
+        "--out",
+        str(out),
+        "--workers",
+        "1",
+    ]
+    proc = subprocess.Popen(
+        cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+    )
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline:
+            if any((out / "runs" / n / "result.json").exists() for n in names):
+                break
+            assert proc.poll() is None, "the grid ended before it could be interrupted"
+            time.sleep(0.05)
+        os.kill(proc.pid, signal.SIGKILL)  # the driver only: its workers must die with it
+        proc.wait(timeout=30)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    time.sleep(1.0)
+    done_before = [n for n in names if run_status(out / "runs" / n) == "finished"]
+    assert 1 <= len(done_before) < len(names)
+    before = {n: snapshot(out / "runs" / n) for n in done_before}
+    # no orphan worker keeps training an interrupted run
+    unfinished = [out / "runs" / n for n in names if n not in done_before]
+    sizes = {p: snapshot(p) if p.exists() else None for p in unfinished}
+    time.sleep(1.0)
+    assert sizes == {p: snapshot(p) if p.exists() else None for p in unfinished}
+
+    summary = run_local(config, out, workers=2, live=False)
+    assert summary.ok
+    assert summary.skipped == len(done_before)
+    assert sorted(summary.finished) == sorted(
+        set(names) - set(done_before)
+    )  # each run finished once
+    assert all(run_status(out / "runs" / n) == "finished" for n in names)
+    assert before == {n: snapshot(out / "runs" / n) for n in done_before}  # untouched
+
+
+def test_different_experiment_in_same_dir_is_refused(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "experiment.yaml").write_text(yaml.safe_dump(base_config(steps=5)))
+    with pytest.raises(ConfigError, match="holds a different experiment"):
+        run_local(load_config(TINY), out, workers=1, live=False)
+
+
+def test_tiny_grid_ray_runner_and_report(tmp_path: Path) -> None:
+    pytest.importorskip("ray")
+    out = tmp_path / "ray"
+    config = load_config(TINY)
+    summary = run_ray(config, out, workers=2, live=False)
+    assert summary.ok, summary.lines()
+    assert summary.total == 6 and len(summary.finished) == 6
+    for r in expand_grid(config):
+        folder = out / "runs" / r.name
+        assert run_status(folder) == "finished"
+        for name in ("config.yaml", "episodes.csv", "eval.csv", "teacher_usage.csv"):
+            assert (folder / name).exists(), (r.name, name)
+    text = check_report(out)
+    assert "6 finished, 0 failed" in text
