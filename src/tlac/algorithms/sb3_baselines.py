@@ -150,7 +150,9 @@ class _RecorderWriter(KVWriter):
 
 class _ContractCallback(BaseCallback):
     """Calls the contract's ``callback(algo) -> bool | None`` at the end of every rollout
-    (returning ``False`` stops training) and re-sets a scheduled PPO ``target_kl``."""
+    and re-sets a scheduled PPO ``target_kl``. Returning ``False`` stops training: SB3 still
+    updates on the rollout just collected and takes one more environment step (its only
+    stopping point is ``on_step``) before it returns."""
 
     def __init__(
         self, owner: _SB3Baseline, callback: ContractCallback | None, total_timesteps: int
@@ -226,11 +228,17 @@ class _SB3Baseline:
         """Train for ``total_timesteps`` environment steps with SB3's own loop."""
         first = self.model.num_timesteps == 0
         total = int(total_timesteps) + (0 if first else self.num_timesteps)
+        kwargs: dict[str, Any] = {}
+        if self.recorder is not None:
+            # SB3 dumps its scalars every `log_interval` iterations: match the run's window
+            per_iteration = self.model.n_steps * self.model.n_envs  # type: ignore[attr-defined]
+            kwargs["log_interval"] = max(1, self.recorder.log_interval // per_iteration)
         self.model.learn(
             int(total_timesteps),
             callback=_ContractCallback(self, callback, total),
             progress_bar=progress_bar,
             reset_num_timesteps=first,
+            **kwargs,
         )
         return self
 
