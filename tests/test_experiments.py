@@ -256,23 +256,60 @@ def check_report(out: Path, paper: bool = True) -> str:
 # --------------------------------------------------------------------------- runners
 
 
-def test_tiny_grid_local_runner_and_report(tmp_path: Path) -> None:
+def start_grid(cfg_path: Path, out: Path, workers: int) -> subprocess.Popen:
+    cmd = [sys.executable, "-m", "tlac.experiments.cli", "experiment", "run", str(cfg_path)]
+    cmd += ["--out", str(out), "--workers", str(workers)]
+    return subprocess.Popen(
+        cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+    )
+
+
+def test_tiny_grid_local_runner_kill_resume_and_report(tmp_path: Path) -> None:
+    """The tiny grid through the local runner: interrupted (the driver killed with SIGKILL right
+    after the first run finished), resumed by rerunning, then reported. Every run ends finished
+    exactly once and the runs finished before the kill are not touched."""
     out = tmp_path / "local"
     config = load_config(TINY)
+    names = [r.name for r in expand_grid(config)]
+    proc = start_grid(TINY, out, workers=1)
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline:
+            if any((out / "runs" / n / "result.json").exists() for n in names):
+                break
+            assert proc.poll() is None, "the grid ended before it could be interrupted"
+            time.sleep(0.05)
+        os.kill(proc.pid, signal.SIGKILL)  # the driver only: its workers must die with it
+        proc.wait(timeout=30)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    time.sleep(0.5)
+    done_before = [n for n in names if run_status(out / "runs" / n) == "finished"]
+    assert 1 <= len(done_before) < len(names)
+    before = {n: snapshot(out / "runs" / n) for n in done_before}
+    # no orphan worker keeps training an interrupted run
+    unfinished = [out / "runs" / n for n in names if n not in done_before]
+    state = {p: snapshot(p) if p.exists() else None for p in unfinished}
+    time.sleep(1.0)
+    assert state == {p: snapshot(p) if p.exists() else None for p in unfinished}
+
     summary = run_local(config, out, workers=2, live=False)
     assert summary.ok, summary.lines()
-    assert summary.total == 6 and len(summary.finished) == 6 and summary.skipped == 0
-    for r in expand_grid(config):
-        assert run_status(out / "runs" / r.name) == "finished"
+    assert summary.total == 6 and summary.skipped == len(done_before)
+    assert sorted(summary.finished) == sorted(set(names) - set(done_before))  # finished once
+    assert all(run_status(out / "runs" / n) == "finished" for n in names)
+    assert before == {n: snapshot(out / "runs" / n) for n in done_before}  # untouched
     assert (out / "experiment.yaml").exists() and (out / "teachers.json").exists()
+
     text = check_report(out)
     assert "6 finished, 0 failed" in text
 
     # running again skips every finished run and touches none of them
-    before = {r.name: snapshot(out / "runs" / r.name) for r in expand_grid(config)}
+    everything = {n: snapshot(out / "runs" / n) for n in names}
     again = run_local(config, out, workers=2, live=False)
     assert again.skipped == 6 and not again.finished
-    assert before == {r.name: snapshot(out / "runs" / r.name) for r in expand_grid(config)}
+    assert everything == {n: snapshot(out / "runs" / n) for n in names}
 
 
 def test_failed_run_is_reported_and_others_continue(tmp_path: Path) -> None:
@@ -306,66 +343,6 @@ def test_failed_run_is_reported_and_others_continue(tmp_path: Path) -> None:
     err = tmp_path / "out" / "runs" / "doorkey__1optimal__broken__seed0" / "error.txt"
     assert "Traceback" in err.read_text()
     assert run_status(err.parent) == "failed"
-
-
-def test_kill_and_resume(tmp_path: Path) -> None:
-    data = base_config(
-        steps=1500,
-        seeds=[0, 1, 2],
-        eval={"episodes": 0},
-        teacher_eval_episodes=0,
-        teacher_sets={"1optimal": ["optimal"]},
-        algorithms=[{"name": "tlac"}],
-    )
-    cfg_path = write_yaml(tmp_path / "resume.yaml", data)
-    config = load_config(cfg_path)
-    out = tmp_path / "out"
-    names = [r.name for r in expand_grid(config)]
-    cmd = [
-        sys.executable,
-        "-m",
-        "tlac.experiments.cli",
-        "experiment",
-        "run",
-        str(cfg_path),
-        "--out",
-        str(out),
-        "--workers",
-        "1",
-    ]
-    proc = subprocess.Popen(
-        cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
-    )
-    try:
-        deadline = time.time() + 120
-        while time.time() < deadline:
-            if any((out / "runs" / n / "result.json").exists() for n in names):
-                break
-            assert proc.poll() is None, "the grid ended before it could be interrupted"
-            time.sleep(0.05)
-        os.kill(proc.pid, signal.SIGKILL)  # the driver only: its workers must die with it
-        proc.wait(timeout=30)
-    finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-    time.sleep(1.0)
-    done_before = [n for n in names if run_status(out / "runs" / n) == "finished"]
-    assert 1 <= len(done_before) < len(names)
-    before = {n: snapshot(out / "runs" / n) for n in done_before}
-    # no orphan worker keeps training an interrupted run
-    unfinished = [out / "runs" / n for n in names if n not in done_before]
-    sizes = {p: snapshot(p) if p.exists() else None for p in unfinished}
-    time.sleep(1.0)
-    assert sizes == {p: snapshot(p) if p.exists() else None for p in unfinished}
-
-    summary = run_local(config, out, workers=2, live=False)
-    assert summary.ok
-    assert summary.skipped == len(done_before)
-    assert sorted(summary.finished) == sorted(
-        set(names) - set(done_before)
-    )  # each run finished once
-    assert all(run_status(out / "runs" / n) == "finished" for n in names)
-    assert before == {n: snapshot(out / "runs" / n) for n in done_before}  # untouched
 
 
 def test_different_experiment_in_same_dir_is_refused(tmp_path: Path) -> None:
