@@ -101,7 +101,9 @@ def main() -> None:
         print(f"{'':20s} {'steps/CPU-s':>12s} {'steps/wall-s':>13s}")
         print(f"{'TL-AC (3 teachers)':20s} {tlac['cpu']:12.1f} {tlac['wall']:13.1f}")
         print(f"{'SB3 PPO':20s} {ppo['cpu']:12.1f} {ppo['wall']:13.1f}")
-        print(f"{'ratio TL-AC / PPO':20s} {tlac['cpu'] / ppo['cpu']:12.2f} {tlac['wall'] / ppo['wall']:13.2f}")
+        print(
+            f"{'ratio TL-AC / PPO':20s} {tlac['cpu'] / ppo['cpu']:12.2f} {tlac['wall'] / ppo['wall']:13.2f}"
+        )
 
 
 if __name__ == "__main__":

@@ -52,6 +52,10 @@ def evaluate_policy(
     return np.asarray(returns[:episodes], dtype=np.float64)
 
 
-def evaluate_student(model: Any, domain: Domain, episodes: int, seed: int, deterministic: bool = True) -> np.ndarray:
+def evaluate_student(
+    model: Any, domain: Domain, episodes: int, seed: int, deterministic: bool = True
+) -> np.ndarray:
     """Returns of ``model.predict`` alone (no teacher) over ``episodes`` episodes."""
-    return evaluate_policy(lambda o: model.predict(o, deterministic=deterministic)[0], domain, episodes, seed)
+    return evaluate_policy(
+        lambda o: model.predict(o, deterministic=deterministic)[0], domain, episodes, seed
+    )

@@ -113,8 +113,12 @@ class Recorder:
         self._usage_file = self._progress_file = None
         if self.out_dir is not None:
             self.out_dir.mkdir(parents=True, exist_ok=True)
-            self._usage_file, self._usage = self._open("teacher_usage.csv", ["timestep", "region", "choice", "count", "fraction"])
-            self._progress_file, self._progress = self._open("progress.csv", ["timestep", "key", "value"])
+            self._usage_file, self._usage = self._open(
+                "teacher_usage.csv", ["timestep", "region", "choice", "count", "fraction"]
+            )
+            self._progress_file, self._progress = self._open(
+                "progress.csv", ["timestep", "key", "value"]
+            )
             if tensorboard:
                 from torch.utils.tensorboard import SummaryWriter
 

@@ -25,7 +25,7 @@ import yaml
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from tlac.algorithms import NO_ADVICE, get_algorithm
-from tlac.envs import Domain, get_domain, make_teachers
+from tlac.envs import Domain, get_domain, make_teachers, parse_teacher_spec
 from tlac.errors import ConfigError, UnknownNameError
 from tlac.evaluation import evaluate_student
 from tlac.presets import load_preset
@@ -33,8 +33,19 @@ from tlac.recording import EpisodeRecorder, Recorder
 
 SELECTORS = ("learned", "random", "ucb1")
 RESULT_FILE = "result.json"
-RUN_FILES = ("episodes.csv", "teacher_usage.csv", "progress.csv", "eval.csv", "tb", "checkpoint.pt",
-             "checkpoint.zip", "model.pt", "model.zip", "config.yaml", RESULT_FILE)
+RUN_FILES = (
+    "episodes.csv",
+    "teacher_usage.csv",
+    "progress.csv",
+    "eval.csv",
+    "tb",
+    "checkpoint.pt",
+    "checkpoint.zip",
+    "model.pt",
+    "model.zip",
+    "config.yaml",
+    RESULT_FILE,
+)
 
 
 @dataclass
@@ -88,14 +99,15 @@ class RunSpec:
         if self.selector not in SELECTORS:
             raise UnknownNameError("selector", self.selector, SELECTORS)
         if self.eval_every is not None and self.eval_every <= 0:
-            raise ConfigError(f"eval_every must be a positive number of steps, got {self.eval_every!r}")
+            raise ConfigError(
+                f"eval_every must be a positive number of steps, got {self.eval_every!r}"
+            )
         if self.eval_episodes < 0:
             raise ConfigError(f"eval_episodes must be >= 0, got {self.eval_episodes!r}")
         if self.log_interval <= 0:
             raise ConfigError(f"log_interval must be positive, got {self.log_interval!r}")
         for name in self.resolved_teachers(domain):
-            if name not in domain.teacher_names:
-                raise UnknownNameError(f"teacher for {self.env}", name, domain.teacher_names)
+            parse_teacher_spec(domain, name)
         return domain
 
 
@@ -108,7 +120,9 @@ def hyperparameters(spec: RunSpec) -> dict[str, Any]:
     return hp
 
 
-def make_vec_env(domain: Domain, n_envs: int, seed: int, episodes_csv: Path | None) -> EpisodeRecorder:
+def make_vec_env(
+    domain: Domain, n_envs: int, seed: int, episodes_csv: Path | None
+) -> EpisodeRecorder:
     """``n_envs`` copies of the domain's env in a DummyVecEnv, seeded ``seed + i``,
     recording finished episodes to ``episodes_csv``."""
     if not isinstance(n_envs, int) or n_envs <= 0:
@@ -143,6 +157,8 @@ def train_run(spec: RunSpec, out_dir: str | Path, progress_bar: bool = False) ->
     hp = hyperparameters(spec)
     n_envs = int(hp.pop("n_envs", 1))
 
+    # small networks: one thread is fastest, and parallel runs must not oversubscribe cores
+    torch.set_num_threads(1)
     torch.manual_seed(spec.seed)
     np.random.seed(spec.seed)
     probe_env = domain.make_env()
@@ -156,9 +172,13 @@ def train_run(spec: RunSpec, out_dir: str | Path, progress_bar: bool = False) ->
         log_interval=spec.log_interval,
         tensorboard=spec.tensorboard,
     )
-    config = {**dataclasses.asdict(spec), "teachers": [t.name for t in teachers],
-              "teacher_kinds": spec.resolved_teachers(domain), "preset": spec.resolved_preset(),
-              "hyperparameters": {"n_envs": n_envs, **hp}}
+    config = {
+        **dataclasses.asdict(spec),
+        "teachers": [t.name for t in teachers],
+        "teacher_kinds": spec.resolved_teachers(domain),
+        "preset": spec.resolved_preset(),
+        "hyperparameters": {"n_envs": n_envs, **hp},
+    }
     (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
 
     algo_cls = get_algorithm(spec.algo)

@@ -46,12 +46,16 @@ def clipped_policy_losses(
     """
     log_ratio = log_prob - old_log_prob
     ratio = torch.exp(log_ratio)
-    surrogate = torch.min(ratio * advantages, torch.clamp(ratio, 1.0 - clip_range, 1.0 + clip_range) * advantages)
+    surrogate = torch.min(
+        ratio * advantages, torch.clamp(ratio, 1.0 - clip_range, 1.0 + clip_range) * advantages
+    )
     kl_terms = (ratio - 1) - log_ratio
     if weights is None:
         return -surrogate.mean(dim=1), kl_terms.mean(dim=1).detach()
     count = weights.sum(dim=1).clamp(min=1.0)
-    return -(surrogate * weights).sum(dim=1) / count, ((kl_terms * weights).sum(dim=1) / count).detach()
+    return -(surrogate * weights).sum(dim=1) / count, (
+        (kl_terms * weights).sum(dim=1) / count
+    ).detach()
 
 
 def masked_clipped_policy_loss(
@@ -63,9 +67,18 @@ def masked_clipped_policy_loss(
 ) -> torch.Tensor:
     """The clipped loss over the rows where ``mask`` is true (0 when none is)."""
     ratio = torch.exp(log_prob - old_log_prob)
-    surrogate = torch.min(ratio * advantages, torch.clamp(ratio, 1.0 - clip_range, 1.0 + clip_range) * advantages)
+    surrogate = torch.min(
+        ratio * advantages, torch.clamp(ratio, 1.0 - clip_range, 1.0 + clip_range) * advantages
+    )
     weight = mask.float()
     return -(surrogate * weight).sum() / weight.sum().clamp(min=1.0)
+
+
+def imitation_loss(log_prob: torch.Tensor, teacher_rows: torch.Tensor) -> torch.Tensor:
+    """Behaviour cloning of the followed teachers: ``-mean log pi(a|s)`` over the rows where a
+    teacher acted (``teacher_rows`` = 1); 0 when there are none. Not in the paper (an opt-in
+    extension, ``imitation_coef``)."""
+    return -(log_prob * teacher_rows).sum() / teacher_rows.sum().clamp(min=1.0)
 
 
 def value_loss(values: torch.Tensor, returns: torch.Tensor) -> torch.Tensor:

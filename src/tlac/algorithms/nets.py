@@ -77,7 +77,8 @@ class StackedMLP(nn.Module):
         # plain Python references to the same tensors: indexing a ParameterList costs more
         # than the matmul it feeds (load_state_dict copies in place, so they stay valid)
         self._layers = [
-            (w, b, getattr(self, f"mask{i}")) for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True))
+            (w, b, getattr(self, f"mask{i}"))
+            for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True))
         ]
         # NumPy views of the same memory, for acting: one small NumPy matmul costs ~1 us of
         # overhead against ~5 us for a PyTorch op, and acting needs no gradient. The
@@ -122,15 +123,21 @@ def np_sample_categorical(logits: np.ndarray, rng: np.random.Generator) -> np.nd
 
 def np_gaussian_log_prob(actions: np.ndarray, mean: np.ndarray, log_std: np.ndarray) -> np.ndarray:
     """NumPy twin of :func:`gaussian_log_prob`."""
-    return (-((actions - mean) ** 2) / (2 * np.exp(2 * log_std)) - log_std - 0.5 * math.log(2 * math.pi)).sum(-1)
+    return (
+        -((actions - mean) ** 2) / (2 * np.exp(2 * log_std)) - log_std - 0.5 * math.log(2 * math.pi)
+    ).sum(-1)
 
 
-def np_gsde_log_std(latent: np.ndarray, log_std_matrix: np.ndarray, epsilon: float = 1e-6) -> np.ndarray:
+def np_gsde_log_std(
+    latent: np.ndarray, log_std_matrix: np.ndarray, epsilon: float = 1e-6
+) -> np.ndarray:
     """NumPy twin of :func:`gsde_log_std`."""
     return 0.5 * np.log((latent**2) @ np.exp(2 * log_std_matrix) + epsilon)
 
 
-def gaussian_log_prob(actions: torch.Tensor, mean: torch.Tensor, log_std: torch.Tensor) -> torch.Tensor:
+def gaussian_log_prob(
+    actions: torch.Tensor, mean: torch.Tensor, log_std: torch.Tensor
+) -> torch.Tensor:
     """Log-density of a diagonal Gaussian, summed over action dimensions."""
     var = torch.exp(2 * log_std)
     return (-((actions - mean) ** 2) / (2 * var) - log_std - 0.5 * math.log(2 * math.pi)).sum(-1)
@@ -141,7 +148,9 @@ def gaussian_entropy(log_std: torch.Tensor) -> torch.Tensor:
     return (0.5 + 0.5 * math.log(2 * math.pi) + log_std).sum(-1)
 
 
-def gsde_log_std(latent: torch.Tensor, log_std_matrix: torch.Tensor, epsilon: float = 1e-6) -> torch.Tensor:
+def gsde_log_std(
+    latent: torch.Tensor, log_std_matrix: torch.Tensor, epsilon: float = 1e-6
+) -> torch.Tensor:
     """Per-sample log std of generalized state-dependent exploration (Raffin et al. 2022):
     the action noise is ``latent @ eps_matrix`` with ``eps_matrix ~ N(0, std^2)``, so its variance
     is ``latent^2 @ std^2``. The latent features are detached, as in SB3's default."""

@@ -18,7 +18,13 @@ import torch
 class RMSpropTFLikeForeach(torch.optim.Optimizer):
     """``v <- alpha v + (1 - alpha) g^2`` (``v`` starts at 1); ``p <- p - lr g / sqrt(v + eps)``."""
 
-    def __init__(self, params: Iterable[torch.Tensor], lr: float = 1e-2, alpha: float = 0.99, eps: float = 1e-8):
+    def __init__(
+        self,
+        params: Iterable[torch.Tensor],
+        lr: float = 1e-2,
+        alpha: float = 0.99,
+        eps: float = 1e-8,
+    ):
         if lr < 0 or eps < 0 or not 0.0 <= alpha <= 1.0:
             raise ValueError(f"invalid RMSprop settings lr={lr}, alpha={alpha}, eps={eps}")
         super().__init__(params, {"lr": lr, "alpha": alpha, "eps": eps})

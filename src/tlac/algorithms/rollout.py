@@ -31,7 +31,9 @@ class Rollout:
     returns: np.ndarray  # (T, E), filled by compute_gae
 
     @classmethod
-    def empty(cls, n_steps: int, n_envs: int, obs_dim: int, action_shape: tuple[int, ...], discrete: bool) -> Rollout:
+    def empty(
+        cls, n_steps: int, n_envs: int, obs_dim: int, action_shape: tuple[int, ...], discrete: bool
+    ) -> Rollout:
         te = (n_steps, n_envs)
         z = lambda *shape, dtype=np.float32: np.zeros(shape, dtype=dtype)  # noqa: E731
         return cls(
@@ -52,7 +54,9 @@ class Rollout:
         out = {}
         for f in fields(self):
             a = getattr(self, f.name)
-            out[f.name] = torch.from_numpy(np.ascontiguousarray(a.reshape(a.shape[0] * a.shape[1], *a.shape[2:])))
+            out[f.name] = torch.from_numpy(
+                np.ascontiguousarray(a.reshape(a.shape[0] * a.shape[1], *a.shape[2:]))
+            )
         return out
 
 

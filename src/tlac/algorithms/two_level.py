@@ -101,6 +101,13 @@ class TLACConfig:
     net_arch_critic: list[int] = field(default_factory=lambda: [64, 64])
     low_level_data: str = "all"
     """Which transitions train the low level: all (the paper) or agent (only where it acted)."""
+    imitation_coef: float = 0.0
+    """Beyond the paper (0 = off, the paper): weight of a behaviour-cloning term
+    ``-log pi_low(a|s)`` on the transitions where a TEACHER acted. The paper's low level learns
+    from teacher actions only through the advantage, which is near zero once the critic has
+    fitted the teachers' behaviour, so the student alone can stay weak while the training
+    return is high. The high level decides which teachers are followed, so the cloned actions
+    are those of the teachers it trusts. See docs/algorithm.md for measurements."""
     selector: str = "learned"
     """High level: learned (TL-AC), random or ucb1 (per episode) -- the Figure 11 ablations."""
     ucb_c: float = 1.0
@@ -114,7 +121,9 @@ class TLACConfig:
         names = [f.name for f in dataclasses.fields(cls)]
         for key in settings:
             if key not in names:
-                raise ConfigError(f"unknown TL-AC setting {key!r}; expected one of: {', '.join(names)}")
+                raise ConfigError(
+                    f"unknown TL-AC setting {key!r}; expected one of: {', '.join(names)}"
+                )
         cfg = cls(**settings)
         cfg.validate()
         return cfg
@@ -135,7 +144,7 @@ class TLACConfig:
             v = getattr(self, name)
             if not 0.0 <= v <= 1.0:
                 raise ConfigError(f"TL-AC setting {name} must be in [0, 1], got {v!r}")
-        for name in ("vf_coef", "max_grad_norm", "ent_coef", "optimizer_eps"):
+        for name in ("vf_coef", "max_grad_norm", "ent_coef", "optimizer_eps", "imitation_coef"):
             if getattr(self, name) < 0:
                 raise ConfigError(f"TL-AC setting {name} must be >= 0, got {getattr(self, name)!r}")
         if self.optimizer not in ("rmsprop_tf", "adam"):
@@ -166,7 +175,9 @@ def _as_vec_env(env: Any, n_envs: int, seed: int) -> tuple[VecEnv, Any]:
         venv = DummyVecEnv([lambda: env])
         venv.seed(seed)
     else:
-        raise ConfigError(f"env must be a domain name, a gymnasium.Env or an SB3 VecEnv, got {env!r}")
+        raise ConfigError(
+            f"env must be a domain name, a gymnasium.Env or an SB3 VecEnv, got {env!r}"
+        )
     if find_episode_recorder(venv) is None:
         venv = EpisodeRecorder(venv)
     return venv, None
@@ -201,7 +212,9 @@ class TLAC:
             )
         self.teachers = self._make_teachers(teachers, domain, seed)
         self.recorder = recorder
-        self._build(self.env.observation_space, self.env.action_space, [t.name for t in self.teachers])
+        self._build(
+            self.env.observation_space, self.env.action_space, [t.name for t in self.teachers]
+        )
         self.num_timesteps = 0
         self._last_obs: np.ndarray | None = None
 
@@ -209,14 +222,22 @@ class TLAC:
     def _make_teachers(self, teachers: Sequence[Any], domain: Any, seed: int) -> list[Teacher]:
         if teachers and all(isinstance(t, str) for t in teachers):
             if domain is None:
-                raise ConfigError("teacher names need env to be a domain name, e.g. TLAC('doorkey', ['optimal'])")
+                raise ConfigError(
+                    "teacher names need env to be a domain name, e.g. TLAC('doorkey', ['optimal'])"
+                )
             from tlac.envs import make_teachers
 
             return make_teachers(domain, list(teachers), domain.make_env(), seed)
-        names = unique_names([getattr(t, "name", None) or f"teacher{i}" for i, t in enumerate(teachers)])
-        return [as_teacher(t, self.env.action_space, n) for t, n in zip(teachers, names, strict=True)]
+        names = unique_names(
+            [getattr(t, "name", None) or f"teacher{i}" for i, t in enumerate(teachers)]
+        )
+        return [
+            as_teacher(t, self.env.action_space, n) for t, n in zip(teachers, names, strict=True)
+        ]
 
-    def _build(self, obs_space: gym.Space, action_space: gym.Space, teacher_names: list[str]) -> None:
+    def _build(
+        self, obs_space: gym.Space, action_space: gym.Space, teacher_names: list[str]
+    ) -> None:
         cfg = self.config
         if not isinstance(obs_space, gym.spaces.Box):
             raise ConfigError(f"TL-AC needs a Box observation space, got {obs_space}")
@@ -236,7 +257,9 @@ class TLAC:
             raise ConfigError(f"TL-AC supports Discrete and Box action spaces, got {action_space}")
         if cfg.use_sde and self.discrete:
             raise ConfigError("use_sde applies to Box action spaces only")
-        ortho_critic = cfg.ortho_init_low if cfg.ortho_init_critic is None else cfg.ortho_init_critic
+        ortho_critic = (
+            cfg.ortho_init_low if cfg.ortho_init_critic is None else cfg.ortho_init_critic
+        )
         self.net = StackedMLP(
             self.obs_dim,
             [list(cfg.net_arch_high), list(cfg.net_arch_low), list(cfg.net_arch_critic)],
@@ -253,12 +276,18 @@ class TLAC:
         self.params = params
         lr0 = make_schedule(cfg.learning_rate, "learning_rate")(1.0)
         if cfg.optimizer == "adam":
-            self.optimizer: torch.optim.Optimizer = torch.optim.Adam(params, lr=lr0, eps=cfg.optimizer_eps, foreach=True)
+            self.optimizer: torch.optim.Optimizer = torch.optim.Adam(
+                params, lr=lr0, eps=cfg.optimizer_eps, foreach=True
+            )
         else:
-            self.optimizer = RMSpropTFLikeForeach(params, lr=lr0, alpha=cfg.rmsprop_alpha, eps=cfg.optimizer_eps)
+            self.optimizer = RMSpropTFLikeForeach(
+                params, lr=lr0, alpha=cfg.rmsprop_alpha, eps=cfg.optimizer_eps
+            )
         self.lr_schedule = make_schedule(cfg.learning_rate, "learning_rate")
         self.clip_schedule = make_schedule(cfg.clip_range, "clip_range")
-        self.kl_schedule = None if cfg.target_kl is None else make_schedule(cfg.target_kl, "target_kl")
+        self.kl_schedule = (
+            None if cfg.target_kl is None else make_schedule(cfg.target_kl, "target_kl")
+        )
         self.generator = torch.Generator().manual_seed(self.seed)  # minibatch order
         self.rng = np.random.default_rng(self.seed)  # acting
         if cfg.selector == "learned":
@@ -266,16 +295,22 @@ class TLAC:
         elif cfg.selector == "random":
             self.selector = RandomSelector(self.n_choices, self.seed)
         else:
-            self.selector = UCB1Selector(self.n_choices, getattr(self, "n_envs", 1), self.seed, cfg.ucb_c)
+            self.selector = UCB1Selector(
+                self.n_choices, getattr(self, "n_envs", 1), self.seed, cfg.ucb_c
+            )
         self.train_high = self.selector.trains_high_level and self.n_choices > 1
         self._sde_noise: np.ndarray | None = None
-        self._ent_coefs = torch.tensor([  # [low, high]
-            cfg.ent_coef if cfg.ent_coef_low is None else cfg.ent_coef_low,
-            cfg.ent_coef if cfg.ent_coef_high is None else cfg.ent_coef_high,
-        ])
+        self._ent_coefs = torch.tensor(
+            [  # [low, high]
+                cfg.ent_coef if cfg.ent_coef_low is None else cfg.ent_coef_low,
+                cfg.ent_coef if cfg.ent_coef_high is None else cfg.ent_coef_high,
+            ]
+        )
 
     # ----------------------------------------------------------------- the policies
-    def _heads(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+    def _heads(
+        self, obs: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """Training pass: (high logits, low output (logits or Gaussian mean), value, low-level
         last hidden layer), with autograd."""
         out, hidden = self.net(obs)
@@ -315,11 +350,15 @@ class TLAC:
         """log pi_low(actions|s) and the low level's entropy per row (training pass)."""
         if self.discrete:
             log_probs = torch.log_softmax(low_out, dim=-1)
-            return log_probs.gather(1, actions.view(-1, 1)).squeeze(1), categorical_entropy(log_probs)
+            return log_probs.gather(1, actions.view(-1, 1)).squeeze(1), categorical_entropy(
+                log_probs
+            )
         log_std = self._low_log_std(latent)
         return gaussian_log_prob(actions, low_out, log_std), gaussian_entropy(log_std)
 
-    def _np_low_log_prob(self, low_out: np.ndarray, latent: np.ndarray, actions: np.ndarray) -> np.ndarray:
+    def _np_low_log_prob(
+        self, low_out: np.ndarray, latent: np.ndarray, actions: np.ndarray
+    ) -> np.ndarray:
         """log pi_low(actions|s) at collection time (acting pass)."""
         if self.discrete:
             return np.take_along_axis(np_log_softmax(low_out), actions[:, None], axis=1)[:, 0]
@@ -335,12 +374,16 @@ class TLAC:
             # one exploration matrix per environment: noise = latent @ eps_matrix
             return low_out + np.matmul(latent[:, None, :], self._sde_noise[: len(latent)])[:, 0]
         log_std = self.log_std.detach().numpy()  # type: ignore[union-attr]
-        return low_out + self.rng.standard_normal(low_out.shape).astype(np.float32) * np.exp(log_std)
+        return low_out + self.rng.standard_normal(low_out.shape).astype(np.float32) * np.exp(
+            log_std
+        )
 
     def _resample_sde_noise(self, n: int | None = None) -> None:
         assert self.log_std is not None
         std = np.exp(self.log_std.detach().numpy())
-        self._sde_noise = (self.rng.standard_normal((n or self.n_envs, *std.shape)) * std).astype(np.float32)
+        self._sde_noise = (self.rng.standard_normal((n or self.n_envs, *std.shape)) * std).astype(
+            np.float32
+        )
 
     def _to_env_actions(self, actions: np.ndarray) -> np.ndarray:
         if self.discrete:
@@ -350,14 +393,20 @@ class TLAC:
         return np.clip(actions, self.action_space.low, self.action_space.high)
 
     def predict(
-        self, obs: np.ndarray, state: Any = None, episode_start: Any = None, deterministic: bool = True
+        self,
+        obs: np.ndarray,
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = True,
     ) -> tuple[np.ndarray, None]:
         """Actions of the low-level policy alone (no teacher), SB3-style ``(actions, None)``."""
         obs = np.asarray(obs)
         single = obs.shape == self.observation_space.shape
         _, low_out, _, latent = self._act_heads(obs)
         if self.discrete:
-            actions = low_out.argmax(-1) if deterministic else np_sample_categorical(low_out, self.rng)
+            actions = (
+                low_out.argmax(-1) if deterministic else np_sample_categorical(low_out, self.rng)
+            )
         elif deterministic:
             actions = low_out
         else:
@@ -388,7 +437,9 @@ class TLAC:
             actions = self._sample_low(low_out, latent)
         return self._to_env_actions(self._apply_teachers(choices, obs, actions))
 
-    def _apply_teachers(self, choices: np.ndarray, obs: np.ndarray, actions: np.ndarray) -> np.ndarray:
+    def _apply_teachers(
+        self, choices: np.ndarray, obs: np.ndarray, actions: np.ndarray
+    ) -> np.ndarray:
         """Replace the agent's action by the chosen teacher's in every row (Algorithm 1, line 18).
         A teacher is queried only for the rows where it was chosen."""
         for k in range(self.n_teachers):
@@ -396,7 +447,9 @@ class TLAC:
             if len(rows) == 0:
                 continue
             teacher = self.teachers[k]
-            advice = check_actions(teacher.name, teacher.predict(obs[rows]), self.action_space, len(rows))
+            advice = check_actions(
+                teacher.name, teacher.predict(obs[rows]), self.action_space, len(rows)
+            )
             actions[rows] = advice
         return actions
 
@@ -440,7 +493,9 @@ class TLAC:
             ro.dones[t] = dones
             ro.values[t] = values
             ro.log_prob_low[t] = self._np_low_log_prob(low_out, latent, actions)
-            ro.log_prob_high[t] = np.take_along_axis(np_log_softmax(high_logits), choices[:, None], axis=1)[:, 0]
+            ro.log_prob_high[t] = np.take_along_axis(
+                np_log_softmax(high_logits), choices[:, None], axis=1
+            )[:, 0]
             self._last_obs = new_obs
             self._episode_starts = np.asarray(dones, dtype=bool)
         last_values = self._act_heads(self._last_obs)[2]
@@ -462,7 +517,10 @@ class TLAC:
         data = ro.flat()
         n = data["obs"].shape[0]
         # both levels' log-probabilities at collection time, stacked: row 0 = low, row 1 = high
-        old_log_probs = torch.stack([data["log_prob_low"], data["log_prob_high"]])[: 2 if self.train_high else 1]
+        old_log_probs = torch.stack([data["log_prob_low"], data["log_prob_high"]])[
+            : 2 if self.train_high else 1
+        ]
+        teacher_rows = (data["choices"] < self.n_teachers).float()
         weights = None
         if cfg.low_level_data == "agent":  # the low level learns only where the agent acted
             agent_rows = (data["choices"] == self.n_teachers).float()
@@ -484,16 +542,36 @@ class TLAC:
                     log_probs_high = torch.log_softmax(high_logits, -1)
                     lp_high = log_probs_high.gather(1, data["choices"][idx].view(-1, 1)).squeeze(1)
                     log_probs = torch.stack([lp_low, lp_high])
-                    entropies = torch.stack([ent_low.mean(), categorical_entropy(log_probs_high).mean()])
+                    entropies = torch.stack(
+                        [ent_low.mean(), categorical_entropy(log_probs_high).mean()]
+                    )
                 else:
                     log_probs, entropies = lp_low[None], ent_low.mean()[None]
                 policy_losses, kls = losses.clipped_policy_losses(
-                    log_probs, old_log_probs[:, idx], adv, clip, None if weights is None else weights[:, idx]
+                    log_probs,
+                    old_log_probs[:, idx],
+                    adv,
+                    clip,
+                    None if weights is None else weights[:, idx],
                 )
-                vf_loss = losses.value_loss(values, data["returns"][idx])  # the one shared critic (Eq. 5)
-                loss = policy_losses.sum() - (self._ent_coefs[: len(entropies)] * entropies).sum() + cfg.vf_coef * vf_loss
+                vf_loss = losses.value_loss(
+                    values, data["returns"][idx]
+                )  # the one shared critic (Eq. 5)
+                loss = (
+                    policy_losses.sum()
+                    - (self._ent_coefs[: len(entropies)] * entropies).sum()
+                    + cfg.vf_coef * vf_loss
+                )
+                if cfg.imitation_coef > 0 and self.n_teachers:
+                    loss = loss + cfg.imitation_coef * losses.imitation_loss(
+                        lp_low, teacher_rows[idx]
+                    )
                 kl = float(kls.max())
-                stats.append(torch.cat([policy_losses.detach(), entropies.detach(), vf_loss.detach()[None], kls]))
+                stats.append(
+                    torch.cat(
+                        [policy_losses.detach(), entropies.detach(), vf_loss.detach()[None], kls]
+                    )
+                )
                 if target_kl is not None and kl > 1.5 * target_kl:
                     stopped_early = True  # SB3's rule: stop before a step that moves too far
                     break
@@ -504,11 +582,21 @@ class TLAC:
             if stopped_early:
                 break
         levels = ["low", "high"][: old_log_probs.shape[0]]
-        keys = [f"policy_loss_{lv}" for lv in levels] + [f"entropy_{lv}" for lv in levels] + ["value_loss"]
+        keys = (
+            [f"policy_loss_{lv}" for lv in levels]
+            + [f"entropy_{lv}" for lv in levels]
+            + ["value_loss"]
+        )
         keys += [f"approx_kl_{lv}" for lv in levels]
         means = torch.stack(stats).mean(0).tolist()
         out = {f"train/{k}": v for k, v in zip(keys, means, strict=True)}
-        out.update({"train/learning_rate": lr, "train/clip_range": clip, "train/stopped_early": float(stopped_early)})
+        out.update(
+            {
+                "train/learning_rate": lr,
+                "train/clip_range": clip,
+                "train/stopped_early": float(stopped_early),
+            }
+        )
         return out
 
     def learn(
@@ -521,8 +609,14 @@ class TLAC:
 
         ``callback(model)`` runs after every collect/update iteration; returning ``False`` stops.
         """
-        if not isinstance(total_timesteps, int | np.integer) or isinstance(total_timesteps, bool) or total_timesteps <= 0:
-            raise ConfigError(f"total_timesteps must be a positive integer, got {total_timesteps!r}")
+        if (
+            not isinstance(total_timesteps, int | np.integer)
+            or isinstance(total_timesteps, bool)
+            or total_timesteps <= 0
+        ):
+            raise ConfigError(
+                f"total_timesteps must be a positive integer, got {total_timesteps!r}"
+            )
         if self.env is None:
             raise ConfigError("this model has no environment: pass env= to TLAC.load to train it")
         if len(self.teachers) != self.n_teachers:
@@ -535,9 +629,19 @@ class TLAC:
         episodes = find_episode_recorder(self.env)
         bar = None
         if progress_bar:
+            import sys
+
             from tqdm.auto import tqdm
 
-            bar = tqdm(total=int(total_timesteps), unit="step", dynamic_ncols=True, desc="TL-AC")
+            # in a terminal: live; in a log file: a line every 10 s, not every update
+            interval = 0.2 if sys.stderr.isatty() else 10.0
+            bar = tqdm(
+                total=int(total_timesteps),
+                unit="step",
+                dynamic_ncols=True,
+                desc="TL-AC",
+                mininterval=interval,
+            )
         usage = np.zeros(self.n_choices)
         window: dict[str, list[float]] = {}
         next_log = self._next_log_step(start_steps)
@@ -552,7 +656,9 @@ class TLAC:
                 window.setdefault(k, []).append(v)
             if self.recorder is not None and self.num_timesteps >= next_log:
                 metrics = {k: float(np.mean(v)) for k, v in window.items()}
-                metrics["time/fps"] = (self.num_timesteps - start_steps) / max(time.time() - t0, 1e-9)
+                metrics["time/fps"] = (self.num_timesteps - start_steps) / max(
+                    time.time() - t0, 1e-9
+                )
                 metrics["time/total_timesteps"] = self.num_timesteps
                 if episodes is not None and episodes.episode_returns:
                     metrics["rollout/ep_rew_mean"] = episodes.mean_recent_return()

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import gymnasium as gym
 import numpy as np
 
-from tlac.errors import UnknownNameError
+from tlac.errors import ConfigError, UnknownNameError
 from tlac.teachers.base import NamedTeacher, Teacher, unique_names
 
 
@@ -79,13 +79,40 @@ def get_domain(name: str) -> Domain:
     return getattr(module, attr)
 
 
+def parse_teacher_spec(domain: Domain, spec: str) -> tuple[str, float | None]:
+    """``"good"`` -> ``("good", None)``; ``"optimal:0.7"`` -> ``("optimal", 0.7)``: the named
+    teacher's action with probability 0.7, a uniformly random action otherwise (the paper's
+    good / noisy construction, appendix A.1.1, with any probability)."""
+    name, _, prob_text = spec.partition(":")
+    if name not in domain.teacher_names:
+        raise UnknownNameError(f"teacher for {domain.name}", name, domain.teacher_names)
+    if not prob_text:
+        return name, None
+    try:
+        prob = float(prob_text)
+    except ValueError:
+        raise ConfigError(
+            f"teacher {spec!r}: {prob_text!r} is not a probability in [0, 1]"
+        ) from None
+    if not 0.0 <= prob <= 1.0:
+        raise ConfigError(f"teacher {spec!r}: probability {prob} is outside [0, 1]")
+    return name, prob
+
+
 def make_teachers(domain: Domain, names: list[str], env: gym.Env, seed: int) -> list[Teacher]:
-    """Build the named teachers of ``domain``; duplicates get distinct seeds and names."""
-    for n in names:
-        if n not in domain.teacher_names:
-            raise UnknownNameError(f"teacher for {domain.name}", n, domain.teacher_names)
+    """Build the named teachers of ``domain`` (``NAME`` or ``NAME:P``, see
+    :func:`parse_teacher_spec`); duplicates get distinct seeds and names."""
+    from tlac.teachers.wrappers import MixedRandomTeacher
+
+    parsed = [parse_teacher_spec(domain, n) for n in names]
     labels = unique_names(list(names))
-    return [
-        NamedTeacher(domain.make_teacher(n, env, seed + 1000 * (i + 1)), label)
-        for i, (n, label) in enumerate(zip(names, labels, strict=True))
-    ]
+    teachers: list[Teacher] = []
+    for i, ((name, prob), label) in enumerate(zip(parsed, labels, strict=True)):
+        teacher_seed = seed + 1000 * (i + 1)
+        teacher = domain.make_teacher(name, env, teacher_seed)
+        if prob is not None:
+            teacher = MixedRandomTeacher(
+                teacher, prob, env.action_space, teacher_seed + 1, name=label
+            )
+        teachers.append(NamedTeacher(teacher, label))
+    return teachers

@@ -15,6 +15,7 @@ are fixed). Three kinds of objects are accepted by :func:`as_teacher`:
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable
 from typing import Any, Protocol, runtime_checkable
 
@@ -70,10 +71,11 @@ class NamedTeacher:
 
 
 def _is_sb3_model(obj: Any) -> bool:
-    try:
-        from stable_baselines3.common.base_class import BaseAlgorithm
-    except ImportError:  # pragma: no cover - sb3 is a dependency
+    # an object cannot be an SB3 model unless SB3 is loaded: skip its (slow) import otherwise
+    if "stable_baselines3" not in sys.modules:
         return False
+    from stable_baselines3.common.base_class import BaseAlgorithm
+
     return isinstance(obj, BaseAlgorithm)
 
 

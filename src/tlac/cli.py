@@ -1,0 +1,301 @@
+"""The ``tlac`` command.
+
+    tlac train                      # TL-AC on DoorKey with optimal + 2 random teachers
+    tlac train --env doorkey --teachers optimal,random,random --steps 50000 --seed 0 --out runs/demo
+    tlac eval runs/demo --episodes 100 [--with-teachers] [--json]
+    tlac envs                       # domains, their teachers and regions
+    tlac teacher train|eval ...     # SAC teachers; measure any teacher
+    tlac experiment run CONFIG --out DIR [--workers N] [--backend ray]
+    tlac report DIR
+
+Bad input exits with status 2 and one line on stderr naming what was wrong.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from tlac.errors import ConfigError, TlacError
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports a usage error as ONE line (and exit status 2)."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(float(text)) if "e" in text.lower() else int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return value
+
+
+def _non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}")
+    return value
+
+
+def _parse_overrides(pairs: list[str]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for pair in pairs:
+        if "=" not in pair:
+            raise ConfigError(f"--set expects KEY=VALUE, got {pair!r}")
+        key, value = pair.split("=", 1)
+        out[key.strip()] = yaml.safe_load(value)
+    return out
+
+
+def _cmd_train(args: argparse.Namespace) -> int:
+    from tlac.algorithms import NO_ADVICE
+    from tlac.run import RunSpec, train_run
+
+    teachers = (
+        None
+        if args.teachers is None
+        else [t.strip() for t in args.teachers.split(",") if t.strip()]
+    )
+    if args.algo in NO_ADVICE and teachers:
+        raise ConfigError(f"--algo {args.algo} learns without advice; drop --teachers")
+    spec = RunSpec(
+        env=args.env,
+        algo=args.algo,
+        teachers=teachers,
+        seed=args.seed,
+        steps=args.steps,
+        selector=args.selector,
+        preset=args.preset,
+        overrides=_parse_overrides(args.set),
+        eval_every=args.eval_every,
+        eval_episodes=args.eval_episodes,
+        log_interval=args.log_interval,
+        tensorboard=args.tensorboard,
+    )
+    domain = spec.validate()
+    out = Path(args.out) if args.out else Path("runs") / f"{spec.env}__{spec.algo}__seed{spec.seed}"
+    names = spec.resolved_teachers(domain)
+    print(
+        f"tlac train: {spec.algo} on {spec.env}, teachers [{', '.join(names) or 'none'}], "
+        f"{spec.steps} steps, seed {spec.seed} -> {out}"
+    )
+    result = train_run(spec, out, progress_bar=not args.no_progress)
+    print(
+        f"trained {result['steps']} steps in {result['wall_time_s']:.0f} s "
+        f"({result['steps_per_s']:.0f} steps/s), {result['episodes']} episodes"
+    )
+    print(
+        f"training return, last episodes (teachers included): {result['final_train_return_mean']:.3f}"
+    )
+    if result["final_eval_mean"] is not None:
+        print(
+            f"student alone, {spec.eval_episodes} episodes: "
+            f"{result['final_eval_mean']:.3f} +- {result['final_eval_std']:.3f}"
+        )
+    print(f"run folder: {out} (episodes.csv, teacher_usage.csv, eval.csv, config.yaml, model)")
+    return 0
+
+
+def _cmd_eval(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from tlac.algorithms import get_algorithm
+    from tlac.envs import get_domain, make_teachers
+    from tlac.evaluation import evaluate_policy
+    from tlac.run import load_run_config
+
+    config = load_run_config(args.run_dir)
+    run = Path(args.run_dir)
+    if not any((run / f"model{ext}").exists() for ext in (".pt", ".zip")):
+        raise ConfigError(
+            f"{str(run)!r} has no trained model (model.pt / model.zip): the run did not finish"
+        )
+    domain = get_domain(config["env"])
+    model = get_algorithm(config["algo"]).load(run / "model")
+    seed = args.seed
+    returns = evaluate_policy(
+        lambda o: model.predict(o, deterministic=not args.stochastic)[0],
+        domain,
+        args.episodes,
+        seed,
+    )
+    result: dict[str, Any] = {
+        "run": str(run),
+        "env": config["env"],
+        "algo": config["algo"],
+        "episodes": len(returns),
+        "student_mean": float(np.mean(returns)),
+        "student_std": float(np.std(returns)),
+    }
+    if args.with_teachers:
+        kinds = config.get("teacher_kinds") or []
+        if not kinds:
+            raise ConfigError(f"{str(run)!r} was trained without teachers; drop --with-teachers")
+        if not hasattr(model, "predict_with_teachers"):
+            raise ConfigError(
+                f"algorithm {config['algo']!r} cannot act with its teachers outside training"
+            )
+        probe = domain.make_env()
+        model.teachers = make_teachers(domain, kinds, probe, config["seed"])
+        with_teachers = evaluate_policy(
+            lambda o: model.predict_with_teachers(o), domain, args.episodes, seed
+        )
+        result.update(
+            with_teachers_mean=float(np.mean(with_teachers)),
+            with_teachers_std=float(np.std(with_teachers)),
+        )
+    if args.json:
+        print(json.dumps(result))
+    else:
+        print(
+            f"student alone ({len(returns)} episodes): {result['student_mean']:.3f} +- {result['student_std']:.3f}"
+        )
+        if args.with_teachers:
+            print(
+                f"with its teachers ({len(returns)} episodes): "
+                f"{result['with_teachers_mean']:.3f} +- {result['with_teachers_std']:.3f}"
+            )
+    return 0
+
+
+def _cmd_envs(args: argparse.Namespace) -> int:
+    from tlac.envs import domain_names, get_domain
+
+    for name in domain_names():
+        try:
+            d = get_domain(name)
+        except TlacError as exc:
+            print(f"{name:14s} unavailable: {exc}")
+            continue
+        print(f"{name:14s} {d.description}")
+        print(
+            f"{'':14s} teachers: {', '.join(d.teacher_names)}; regions: {', '.join(d.region_names)}"
+        )
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from tlac import __version__
+    from tlac.algorithms import algorithm_names
+    from tlac.run import SELECTORS
+
+    parser = _Parser(
+        prog="tlac", description="Reinforcement learning with advice from several teachers (TL-AC)."
+    )
+    parser.add_argument("--version", action="version", version=f"tlac {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+
+    train = sub.add_parser("train", help="train one run and write its run folder")
+    train.add_argument("--env", default="doorkey", help="domain (see `tlac envs`; default doorkey)")
+    train.add_argument(
+        "--algo", default="tlac", choices=algorithm_names(), help="algorithm (default tlac)"
+    )
+    train.add_argument(
+        "--teachers",
+        default=None,
+        help="comma-separated teacher names of the domain (default: the domain's "
+        "default set); NAME:P mixes NAME with random actions, P = P(NAME's action)",
+    )
+    train.add_argument(
+        "--steps", type=_positive_int, default=50_000, help="environment steps (default 50000)"
+    )
+    train.add_argument("--seed", type=_non_negative_int, default=0)
+    train.add_argument("--out", default=None, help="run folder (default runs/ENV__ALGO__seedSEED)")
+    train.add_argument(
+        "--selector",
+        default="learned",
+        choices=SELECTORS,
+        help="TL-AC's high level: learned (the paper), random or ucb1 (ablations)",
+    )
+    train.add_argument(
+        "--preset", default=None, help="hyperparameter preset (default: the domain's)"
+    )
+    train.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a hyperparameter, e.g. --set n_epochs=10 (YAML values)",
+    )
+    train.add_argument(
+        "--eval-every",
+        type=_positive_int,
+        default=None,
+        help="evaluate the student alone every N steps (default: at the end only)",
+    )
+    train.add_argument(
+        "--eval-episodes",
+        type=_non_negative_int,
+        default=20,
+        help="episodes per student-alone evaluation (default 20)",
+    )
+    train.add_argument(
+        "--log-interval", type=_positive_int, default=2000, help="steps per logging window"
+    )
+    train.add_argument(
+        "--tensorboard", action="store_true", help="also write TensorBoard logs to RUN/tb"
+    )
+    train.add_argument("--no-progress", action="store_true", help="no progress bar")
+    train.set_defaults(func=_cmd_train)
+
+    ev = sub.add_parser(
+        "eval", help="evaluate a run's student alone (and optionally with its teachers)"
+    )
+    ev.add_argument("run_dir", help="a run folder written by `tlac train`")
+    ev.add_argument("--episodes", type=_positive_int, default=100)
+    ev.add_argument(
+        "--seed", type=_non_negative_int, default=123_456, help="seed of the first episode"
+    )
+    ev.add_argument(
+        "--with-teachers",
+        action="store_true",
+        help="also evaluate the high level with its teachers",
+    )
+    ev.add_argument(
+        "--stochastic", action="store_true", help="sample the student's actions (default: greedy)"
+    )
+    ev.add_argument("--json", action="store_true", help="print one JSON object")
+    ev.set_defaults(func=_cmd_eval)
+
+    envs = sub.add_parser("envs", help="list the domains, their teachers and regions")
+    envs.set_defaults(func=_cmd_envs)
+
+    from tlac.teachers import cli as teacher_cli
+
+    teacher_cli.register(sub)
+    from tlac.experiments import cli as experiment_cli
+
+    experiment_cli.register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except TlacError as exc:
+        print(f"tlac: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("tlac: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

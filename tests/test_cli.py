@@ -1,0 +1,102 @@
+"""The `tlac` command: a short real run, evaluation, and one-line errors with exit status 2."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tlac.cli import main
+
+
+def run_cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "tlac.cli", *args], capture_output=True, text=True, timeout=300
+    )
+
+
+def test_train_then_eval(tmp_path, capsys):
+    out = tmp_path / "run"
+    code = main(
+        [
+            "train",
+            "--env",
+            "doorkey",
+            "--teachers",
+            "optimal,random,random",
+            "--steps",
+            "600",
+            "--seed",
+            "0",
+            "--out",
+            str(out),
+            "--no-progress",
+            "--eval-episodes",
+            "2",
+            "--log-interval",
+            "200",
+        ]
+    )
+    assert code == 0
+    for name in (
+        "config.yaml",
+        "episodes.csv",
+        "teacher_usage.csv",
+        "eval.csv",
+        "model.pt",
+        "result.json",
+    ):
+        assert (out / name).exists(), name
+    header = (out / "episodes.csv").read_text().splitlines()[0]
+    assert header.startswith("timestep,return,length")
+    result = json.loads((out / "result.json").read_text())
+    assert result["steps"] >= 600
+    capsys.readouterr()
+    assert main(["eval", str(out), "--episodes", "3", "--json", "--with-teachers"]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    assert (
+        printed["episodes"] == 3 and "student_mean" in printed and "with_teachers_mean" in printed
+    )
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (["train", "--env", "atari"], "unknown environment 'atari'"),
+        (["train", "--teachers", "optimal,wizard"], "unknown teacher for doorkey 'wizard'"),
+        (["train", "--teachers", "optimal:1.5"], "probability 1.5 is outside [0, 1]"),
+        (["train", "--steps", "0"], "expected a positive integer"),
+        (["train", "--steps", "-5"], "expected a positive integer"),
+        (["train", "--set", "gamma=2"], "gamma must be in [0, 1]"),
+        (["eval", "/no/such/run"], "run folder '/no/such/run' does not exist"),
+        (["train", "--algo", "ppo", "--teachers", "optimal"], "drop --teachers"),
+    ],
+)
+def test_bad_input_exits_2_with_one_line(args, fragment):
+    proc = run_cli(*args)
+    assert proc.returncode == 2, proc.stderr
+    lines = [line for line in proc.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1, proc.stderr
+    assert fragment in lines[0]
+    assert "Traceback" not in proc.stderr
+
+
+def test_eval_of_a_folder_that_is_not_a_run(tmp_path):
+    proc = run_cli("eval", str(tmp_path))
+    assert proc.returncode == 2 and "config.yaml is missing" in proc.stderr
+
+
+def test_envs_lists_doorkey():
+    proc = run_cli("envs")
+    assert proc.returncode == 0 and "doorkey" in proc.stdout and "optimal" in proc.stdout
+
+
+def test_readme_starts_with_the_two_commands():
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text().splitlines()
+    blocks = [line for line in readme[:40] if line.startswith("bash ") or line.startswith("python")]
+    assert any("scripts/demo.sh" in b for b in blocks) and any(
+        "scripts/test.sh" in b for b in blocks
+    )

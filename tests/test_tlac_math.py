@@ -1,0 +1,172 @@
+"""Hand-checked math of TL-AC: GAE, the clipped losses, schedules, UCB1, the stacked network."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from tlac.algorithms import losses
+from tlac.algorithms.nets import StackedMLP, gaussian_log_prob, np_gaussian_log_prob, np_log_softmax
+from tlac.algorithms.optim import RMSpropTFLikeForeach
+from tlac.algorithms.rollout import compute_gae
+from tlac.errors import ConfigError
+from tlac.presets import make_schedule
+from tlac.selectors import UCB1Selector, ucb1_scores
+
+
+def test_gae_lambda_zero_is_the_papers_one_step_advantage():
+    # Eq. 2: A = r + gamma V(s') - V(s); the episode ends after step 1 (no bootstrap there)
+    rewards = np.array([[1.0], [0.0], [2.0]])
+    values = np.array([[0.5], [1.0], [0.2]])
+    dones = np.array([[0.0], [1.0], [0.0]])
+    last = np.array([3.0])
+    adv, ret = compute_gae(rewards, values, dones, last, gamma=0.9, gae_lambda=0.0)
+    expected = [1 + 0.9 * 1.0 - 0.5, 0 + 0 - 1.0, 2 + 0.9 * 3.0 - 0.2]
+    np.testing.assert_allclose(adv[:, 0], expected, rtol=1e-6)
+    np.testing.assert_allclose(ret[:, 0], np.array(expected) + values[:, 0], rtol=1e-6)
+
+
+def test_gae_with_lambda_by_hand():
+    rewards = np.array([[1.0], [1.0]])
+    values = np.array([[0.0], [0.0]])
+    dones = np.zeros((2, 1))
+    adv, _ = compute_gae(rewards, values, dones, np.array([1.0]), gamma=0.5, gae_lambda=0.5)
+    d1 = 1 + 0.5 * 1.0 - 0.0  # delta at t=1
+    d0 = 1 + 0.5 * 0.0 - 0.0  # delta at t=0
+    np.testing.assert_allclose(adv[:, 0], [d0 + 0.25 * d1, d1], rtol=1e-6)
+
+
+def test_gae_done_cuts_the_trace():
+    rewards = np.array([[0.0], [1.0]])
+    values = np.array([[0.0], [0.0]])
+    dones = np.array([[1.0], [0.0]])
+    adv, _ = compute_gae(rewards, values, dones, np.array([0.0]), gamma=1.0, gae_lambda=1.0)
+    assert adv[0, 0] == 0.0 and adv[1, 0] == 1.0
+
+
+def test_clipped_policy_loss_by_hand():
+    old = torch.zeros(4)
+    ratios = torch.tensor([1.5, 0.5, 1.5, 0.5])
+    adv = torch.tensor([1.0, 1.0, -1.0, -1.0])
+    loss = losses.clipped_policy_loss(torch.log(ratios), old, adv, clip_range=0.2)
+    # min(r A, clip(r) A): 1.2, 0.5, -1.5, -0.8 -> mean -0.15, loss = 0.15
+    assert float(loss) == pytest.approx(-(1.2 + 0.5 - 1.5 - 0.8) / 4)
+
+
+def test_stacked_losses_equal_separate_ones_and_respect_weights():
+    torch.manual_seed(0)
+    lp, old = torch.randn(2, 6), torch.randn(2, 6)
+    adv = torch.randn(6)
+    per_level, kls = losses.clipped_policy_losses(lp, old, adv, 0.2)
+    for level in range(2):
+        assert float(per_level[level]) == pytest.approx(
+            float(losses.clipped_policy_loss(lp[level], old[level], adv, 0.2))
+        )
+        assert float(kls[level]) == pytest.approx(float(losses.approx_kl(lp[level], old[level])))
+    mask = torch.tensor([1.0, 0, 1, 0, 1, 0])
+    weighted, _ = losses.clipped_policy_losses(
+        lp, old, adv, 0.2, torch.stack([mask, torch.ones(6)])
+    )
+    keep = mask.bool()
+    assert float(weighted[0]) == pytest.approx(
+        float(losses.clipped_policy_loss(lp[0][keep], old[0][keep], adv[keep], 0.2))
+    )
+
+
+def test_value_loss_and_approx_kl():
+    assert float(
+        losses.value_loss(torch.tensor([1.0, 2.0]), torch.tensor([2.0, 0.0]))
+    ) == pytest.approx(2.5)
+    assert float(losses.approx_kl(torch.zeros(3), torch.zeros(3))) == 0.0
+    r = 2.0
+    assert float(losses.approx_kl(torch.tensor([math.log(r)]), torch.zeros(1))) == pytest.approx(
+        r - 1 - math.log(r)
+    )
+
+
+def test_linear_schedule_and_bad_schedule():
+    s = make_schedule({"linear": [0.3, 0.1]})
+    assert (
+        s(1.0) == pytest.approx(0.3)
+        and s(0.0) == pytest.approx(0.1)
+        and s(0.5) == pytest.approx(0.2)
+    )
+    with pytest.raises(ConfigError, match="linear"):
+        make_schedule("lin_0.3")
+
+
+def test_ucb1_scores_by_hand():
+    sums, counts = np.array([2.0, 0.0, 0.0]), np.array([2, 1, 0])
+    scores = ucb1_scores(sums, counts, c=1.0, value_range=1.0)
+    assert scores[2] == math.inf
+    assert scores[0] == pytest.approx(1.0 + math.sqrt(2 * math.log(3) / 2))
+    assert scores[1] == pytest.approx(0.0 + math.sqrt(2 * math.log(3) / 1))
+
+
+def test_ucb1_selector_plays_each_arm_then_exploits():
+    sel = UCB1Selector(n_choices=3, n_envs=1, seed=0, c=0.1)
+    played = []
+    for _ in range(3):
+        arm = int(sel.select(None, np.array([True]))[0])
+        played.append(arm)
+        sel.episode_end(0, {0: 0.1, 1: 0.9, 2: 0.2}[arm])
+    assert sorted(played) == [0, 1, 2]
+    # mid-episode the choice is kept; at the next start the best arm (1) wins
+    assert int(sel.select(None, np.array([True]))[0]) == 1
+    assert int(sel.select(None, np.array([False]))[0]) == 1
+
+
+def test_stacked_mlp_members_equal_their_own_mlps_even_with_different_widths():
+    torch.manual_seed(0)
+    net = StackedMLP(5, [[8, 4], [6, 6], [3, 7]], [3, 2, 1], [True, False, True], [0.01, 0.01, 1.0])
+    x = torch.randn(4, 5)
+    out, _ = net(x)
+    for m, (hidden, n_out) in enumerate(zip([[8, 4], [6, 6], [3, 7]], [3, 2, 1], strict=True)):
+        widths = [5, *hidden, n_out]
+        h = x
+        for layer, w in enumerate(net.weights):
+            weight = w[m, : widths[layer], : widths[layer + 1]]
+            bias = net.biases[layer][m, 0, : widths[layer + 1]]
+            h = h @ weight + bias
+            if layer < len(net.weights) - 1:
+                h = torch.tanh(h)
+        torch.testing.assert_close(out[m, :, :n_out], h)
+    np.testing.assert_allclose(
+        net.forward_numpy(x.numpy())[0], out.detach().numpy(), rtol=1e-5, atol=1e-6
+    )
+    # a gradient step leaves the padded weights at exactly zero
+    opt = RMSpropTFLikeForeach(net.parameters(), lr=0.1)
+    net(x)[0].sum().backward()
+    opt.step()
+    assert float(net.weights[0].detach()[2, :, 3:].abs().sum()) == 0.0
+
+
+def test_foreach_rmsprop_matches_sb3_rmsprop_tf_like():
+    from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
+
+    torch.manual_seed(0)
+    a = [torch.randn(5, 3, requires_grad=True), torch.randn(4, requires_grad=True)]
+    b = [x.detach().clone().requires_grad_() for x in a]
+    opt_a = RMSpropTFLike(a, lr=7e-4, alpha=0.99, eps=1e-5)
+    opt_b = RMSpropTFLikeForeach(b, lr=7e-4, alpha=0.99, eps=1e-5)
+    for _ in range(10):
+        for params, opt in ((a, opt_a), (b, opt_b)):
+            opt.zero_grad()
+            sum((p**3).sum() for p in params).backward()
+            opt.step()
+    for x, y in zip(a, b, strict=True):
+        torch.testing.assert_close(x.detach(), y.detach())
+
+
+def test_numpy_and_torch_log_probs_agree():
+    rng = np.random.default_rng(0)
+    a, mean, log_std = rng.normal(size=(3, 2)), rng.normal(size=(3, 2)), rng.normal(size=(3, 2))
+    t = gaussian_log_prob(*(torch.tensor(v) for v in (a, mean, log_std)))
+    np.testing.assert_allclose(np_gaussian_log_prob(a, mean, log_std), t.numpy(), rtol=1e-10)
+    logits = rng.normal(size=(4, 5))
+    np.testing.assert_allclose(
+        np_log_softmax(logits), torch.log_softmax(torch.tensor(logits), -1).numpy(), rtol=1e-10
+    )
