@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -367,3 +368,99 @@ def test_tiny_grid_ray_runner_and_report(tmp_path: Path) -> None:
             assert (folder / name).exists(), (r.name, name)
     text = check_report(out)
     assert "6 finished, 0 failed" in text
+
+
+# --------------------------------------------------------------------------- report numbers
+
+
+def fake_run(folder: Path, returns: list[float], final_eval: float, usage: bool) -> None:
+    """A finished run folder with episodes ending at steps 250, 500, 750, 1000."""
+    folder.mkdir(parents=True)
+    rows = "".join(f"{t},{r},10\n" for t, r in zip((250, 500, 750, 1000), returns, strict=True))
+    (folder / "episodes.csv").write_text("timestep,return,length\n" + rows)
+    (folder / "eval.csv").write_text(
+        f"timestep,mean_return,std_return,episodes\n0,0.0,0.0,1\n1000,{final_eval},0.0,1\n"
+    )
+    lines = ["timestep,region,choice,count,fraction"]
+    if usage:
+        for t in (500, 1000):
+            lines += [f"{t},all,optimal,6,0.6", f"{t},all,agent,4,0.4"]
+            lines += [f"{t},left,optimal,5,0.625", f"{t},left,agent,3,0.375"]
+            lines += [f"{t},right,optimal,1,0.5", f"{t},right,agent,1,0.5"]
+    (folder / "teacher_usage.csv").write_text("\n".join(lines) + "\n")
+    (folder / "result.json").write_text(
+        f'{{"finished": true, "steps": 1000, "final_eval_mean": {final_eval}}}'
+    )
+
+
+def test_report_numbers_against_hand_computed_values(tmp_path: Path) -> None:
+    data = {
+        "domain": "doorkey",
+        "steps": 1000,
+        "seeds": 2,
+        "eval": {"every": 1000, "episodes": 1},
+        "metrics": {
+            "jumpstart_window": 500,
+            "final_window": 500,
+            "threshold": 0.5,
+            "curve_points": 4,
+            "bootstrap_reps": 100,
+        },
+        "teacher_sets": {"a": ["optimal"], "b": ["L", "R"]},
+        "algorithms": [
+            {"name": "tlac"},
+            {"name": "tlac", "selector": "ucb1", "teacher_sets": ["b"]},
+            {"name": "a2c"},
+        ],
+    }
+    out = tmp_path / "exp"
+    (out / "runs").mkdir(parents=True)
+    (out / "experiment.yaml").write_text(yaml.safe_dump(data))
+    (out / "teachers.json").write_text('{"optimal": {"mean": 0.95, "std": 0.0, "episodes": 3}}')
+    runs = out / "runs"
+    fake_run(runs / "doorkey__none__a2c__seed0", [0, 0, 0, 0], 0.0, usage=False)
+    fake_run(runs / "doorkey__none__a2c__seed1", [0, 0, 0.2, 0.2], 0.0, usage=False)
+    fake_run(runs / "doorkey__a__tlac__seed0", [0.4, 0.6, 0.8, 1.0], 1.0, usage=True)
+    fake_run(runs / "doorkey__a__tlac__seed1", [0.2, 0.2, 0.6, 0.6], 0.5, usage=True)
+    fake_run(runs / "doorkey__b__tlac__seed0", [0.1, 0.1, 0.3, 0.3], 0.0, usage=True)
+    fake_run(runs / "doorkey__b__tlac__seed1", [0.3, 0.3, 0.5, 0.5], 1.0, usage=True)
+    fake_run(runs / "doorkey__b__tlac__ucb1__seed0", [0, 0, 0, 0], 0.0, usage=True)
+    (runs / "doorkey__b__tlac__ucb1__seed1").mkdir()
+    (runs / "doorkey__b__tlac__ucb1__seed1" / "error.txt").write_text(
+        "Traceback\nValueError: boom\n"
+    )
+
+    text = write_report(out, paper=True).read_text()
+    js = pd.read_csv(out / "jumpstart.csv").set_index(["teacher_set", "algo"])["jumpstart"]
+    # baseline initial (steps <= 500): seed0 0, seed1 0 -> 0
+    # a/tlac: seed0 mean(0.4, 0.6) = 0.5, seed1 0.2 -> 0.35; b/tlac: 0.1, 0.3 -> 0.2
+    assert js[("a", "tlac")] == pytest.approx(0.35)
+    assert js[("b", "tlac")] == pytest.approx(0.2)
+    assert js[("b", "tlac__ucb1")] == pytest.approx(0.0)
+    assert "| a | 0.350 |  |" in text
+    assert "| b | 0.200 | 0.000 |" in text
+    # final (steps > 500): a/tlac 0.9 and 0.6 -> 0.75 +- 0.15; b/tlac 0.3 and 0.5 -> 0.4 +- 0.1
+    assert "0.750 ± 0.150 (n=2)" in text
+    assert "0.400 ± 0.100 (n=2)" in text
+    # area under the curve / steps, a/tlac seed0 on [250, 500, 750, 1000] = [0.4, 0.6, 0.8, 1.0]:
+    # (125 + 175 + 225) / 750 = 0.7; seed1 [0.2, 0.2, 0.6, 0.6]: (50 + 100 + 150) / 750 = 0.4
+    assert "| 0.550 ± 0.150 (n=2) |" in text
+    # the student alone: a/tlac 1.0 and 0.5 -> 0.75 +- 0.25
+    assert "0.750 ± 0.250 (n=2)" in text
+    # seed-mean curve of a/tlac on [250, 500, 750, 1000]: 0.3, 0.4, 0.7, 0.8 -> 0.5 first at 750
+    row = next(line for line in text.splitlines() if line.startswith("| a | `tlac` |"))
+    assert row.endswith("| 750 |")
+    # IQM of tlac's final returns 0.9, 0.6, 0.3, 0.5: mean of the middle two = 0.55
+    assert "| `tlac` | 0.550 [" in text
+    # the failed run is listed with its error; the paper's cells are absent for keys a/b
+    assert "`doorkey__b__tlac__ucb1__seed1`: ValueError: boom" in text
+    assert not re.search(r"\(paper -?\d", text)
+    for name in (
+        "curves.png",
+        "student_alone.png",
+        "iqm.png",
+        "ablation.png",
+        "usage__a__tlac.png",
+    ):
+        assert (out / "figures" / name).read_bytes()[:4] == b"\x89PNG"
+    assert "teacher usage" in text.lower()
