@@ -313,7 +313,22 @@ def test_tiny_grid_local_runner_kill_resume_and_report(tmp_path: Path) -> None:
     assert everything == {n: snapshot(out / "runs" / n) for n in names}
 
 
-def test_failed_run_is_reported_and_others_continue(tmp_path: Path) -> None:
+class KillsItsWorker:
+    """An 'algorithm' whose construction kills its own process, like the kernel's OOM killer."""
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        os.kill(os.getpid(), signal.SIGKILL)
+
+
+def test_failed_runs_are_reported_and_others_continue(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """One run raises (an invalid override), one kills its worker process; both are reported
+    with their error and the remaining run still finishes. The driver's algorithm registry
+    reaches the spawned workers, so the test's stand-in for ``ppo`` is what they run."""
+    from tlac import algorithms
+
+    monkeypatch.setitem(algorithms.ALGORITHMS, "ppo", f"{__name__}:KillsItsWorker")
     data = base_config(
         steps=300,
         seeds=[0],
@@ -321,6 +336,7 @@ def test_failed_run_is_reported_and_others_continue(tmp_path: Path) -> None:
         teacher_eval_episodes=0,
         teacher_sets={"1optimal": ["optimal"]},
         algorithms=[
+            {"name": "ppo"},
             {"name": "tlac", "label": "broken", "overrides": {"batch_size": 999}},
             {"name": "tlac"},
         ],
@@ -334,16 +350,18 @@ def test_failed_run_is_reported_and_others_continue(tmp_path: Path) -> None:
         live=False,
         on_event=lambda status, name: events.append((status, name)),
     )
-    assert list(summary.failed) == ["doorkey__1optimal__broken__seed0"]
-    assert "batch_size 999" in summary.failed["doorkey__1optimal__broken__seed0"]
-    assert summary.finished == ["doorkey__1optimal__tlac__seed0"]
     assert events == [
+        ("failed", "doorkey__none__ppo__seed0"),
         ("failed", "doorkey__1optimal__broken__seed0"),
         ("finished", "doorkey__1optimal__tlac__seed0"),
     ]
+    assert "worker process died" in summary.failed["doorkey__none__ppo__seed0"]
+    assert "batch_size 999" in summary.failed["doorkey__1optimal__broken__seed0"]
+    assert summary.finished == ["doorkey__1optimal__tlac__seed0"]
     err = tmp_path / "out" / "runs" / "doorkey__1optimal__broken__seed0" / "error.txt"
     assert "Traceback" in err.read_text()
     assert run_status(err.parent) == "failed"
+    assert run_status(tmp_path / "out" / "runs" / "doorkey__none__ppo__seed0") == "failed"
 
 
 def test_different_experiment_in_same_dir_is_refused(tmp_path: Path) -> None:

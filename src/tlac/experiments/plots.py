@@ -109,12 +109,13 @@ def plot_interval_estimates(
     highs: Sequence[float],
     xlabel: str = "IQM of final return",
     title: str = "",
+    styles: Sequence[int] | None = None,
 ) -> Axes:
     """Point estimates with confidence intervals, one row per label (rliable's interval plot):
     a thick bar spans the interval, a black tick marks the estimate."""
     y = np.arange(len(labels))
     for i, (p, lo, hi) in enumerate(zip(points, lows, highs, strict=True)):
-        st = style(i)
+        st = style(styles[i] if styles is not None else i)
         ax.barh(
             i,
             hi - lo,

@@ -382,7 +382,15 @@ class _Report:
             p, lo, hi = zip(*est[col], strict=True) if est[col] else ((), (), ())
             from tlac.experiments.plots import plot_interval_estimates
 
-            plot_interval_estimates(ax, labels, p, lo, hi, xlabel=xlabel + " (per episode)")
+            plot_interval_estimates(
+                ax,
+                labels,
+                p,
+                lo,
+                hi,
+                xlabel=xlabel + " (per episode)",
+                styles=[self.styles[a] for a in labels],
+            )
         self.save(fig, "iqm.png", "IQM with 95% stratified-bootstrap confidence intervals")
 
     def _references(self, set_key: str) -> dict[str, float]:

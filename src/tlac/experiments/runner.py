@@ -34,6 +34,7 @@ import time
 import traceback
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -147,7 +148,7 @@ def evaluate_teachers(config: ExperimentConfig, out: Path) -> dict[str, Any]:
 # --------------------------------------------------------------------------- worker side
 
 
-def _init_worker(algorithms: dict[str, str]) -> None:
+def _init_worker(algorithms: dict[str, str], die_with_parent: bool = True) -> None:
     """Process initialiser: one torch thread per worker, the driver's algorithm registry
     (so that algorithms registered at run time by a plugin or a test exist here too), and
     death with the driver (Linux ``PR_SET_PDEATHSIG``) so that no orphan writes into ``DIR``."""
@@ -158,7 +159,7 @@ def _init_worker(algorithms: dict[str, str]) -> None:
     from tlac import algorithms as registry
 
     registry.ALGORITHMS.update(algorithms)
-    if sys.platform.startswith("linux"):
+    if die_with_parent and sys.platform.startswith("linux"):
         with contextlib.suppress(Exception):
             import ctypes
 
@@ -199,7 +200,7 @@ def execute_run_packed(
 ) -> dict[str, Any]:
     """Ray task: train into a temporary folder on this node and return it packed (tar.gz
     bytes, ``result.json`` excluded and returned as a dict) for the driver to write."""
-    _init_worker(algorithms)
+    _init_worker(algorithms, die_with_parent=False)  # Ray manages its own worker processes
     with tempfile.TemporaryDirectory(prefix="tlac-run-") as tmp:
         folder = Path(tmp) / name
         outcome = execute_run(name, spec_dict, str(folder))
@@ -393,12 +394,16 @@ def run_local(
         import multiprocessing
 
         ctx = multiprocessing.get_context("spawn")
-        pool = ProcessPoolExecutor(
-            max_workers=min(workers, len(todo)),
-            mp_context=ctx,
-            initializer=_init_worker,
-            initargs=(_registry(),),
-        )
+
+        def new_pool() -> ProcessPoolExecutor:
+            return ProcessPoolExecutor(
+                max_workers=min(workers, len(todo)),
+                mp_context=ctx,
+                initializer=_init_worker,
+                initargs=(_registry(),),
+            )
+
+        pool = new_pool()
         futures: dict[Future[dict[str, Any]], GridRun] = {}
         queue = list(todo)
         try:
@@ -408,28 +413,32 @@ def run_local(
                     # keep exactly `workers` runs in flight, so "running" is what really runs
                     while queue and len(futures) < workers:
                         r = queue.pop(0)
-                        futures[
-                            pool.submit(execute_run, r.name, asdict(r.spec), str(run_dir(out, r)))
-                        ] = r
+                        folder = str(run_dir(out, r))
+                        futures[pool.submit(execute_run, r.name, asdict(r.spec), folder)] = r
                         display.started(r.name)
 
                 submit_more()
                 while futures:
                     done, _ = wait(list(futures), timeout=1.0, return_when=FIRST_COMPLETED)
+                    broken = False
                     for fut in done:
                         r = futures.pop(fut)
                         try:
                             outcome = fut.result()
-                        except Exception as exc:  # the worker process died (e.g. out of memory)
+                        except BrokenProcessPool as exc:  # a worker was killed (e.g. out of memory)
+                            broken = True
                             outcome = {
                                 "status": "failed",
-                                "error": f"worker died: {_one_line(exc)}",
+                                "error": f"worker process died: {_one_line(exc)}",
                                 "wall": 0.0,
                             }
                             folder = run_dir(out, r)
                             folder.mkdir(parents=True, exist_ok=True)
                             atomic_write_text(folder / ERROR_FILE, outcome["error"] + "\n")
                         _record(summary, display, r.name, outcome, on_event)
+                    if broken:  # a broken pool fails every call: replace it, go on with the rest
+                        pool.shutdown(wait=False, cancel_futures=True)
+                        pool = new_pool()
                     submit_more()
                     display.refresh()
         except KeyboardInterrupt:
