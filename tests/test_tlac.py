@@ -178,18 +178,45 @@ def test_bad_settings_raise_config_error(settings, match):
 
 
 @pytest.mark.slow
-def test_learns_doorkey_with_one_optimal_and_two_random_teachers():
-    """With an optimal teacher among random ones, TL-AC's training return (teachers
-    included, as the paper reports) must reach a level that neither random advice nor
-    random teacher selection reaches in this budget; and the high level must have learned
-    to prefer the optimal teacher over the random ones."""
-    model = TLAC("doorkey", teachers=["optimal", "random", "random"], seed=0)
-    usage = np.zeros(4)
+def test_learns_to_trust_the_optimal_teacher_on_doorkey(tmp_path):
+    """One optimal + two random teachers on DoorKey, 10k steps. The training return (teachers
+    included, the paper's metric) must beat what RANDOM teacher selection reaches with the
+    same teachers (0.85-0.88 measured at 5-15k steps), and the learned high level must pick
+    the optimal teacher far more often than uniform selection (1/4)."""
+    from tlac.envs.doorkey import REGION_NAMES, region_of
 
-    def count(m: TLAC) -> None:
-        if m.num_timesteps > 8000:
-            usage[:] += np.bincount(m._last_choices, minlength=4)
-
-    model.learn(12_000, progress_bar=False)
+    rec = Recorder(
+        tmp_path,
+        ["optimal", "random_1", "random_2", "agent"],
+        REGION_NAMES,
+        region_of,
+        log_interval=2000,
+    )
+    model = TLAC("doorkey", teachers=["optimal", "random", "random"], seed=0, recorder=rec)
+    model.learn(10_000, progress_bar=False)
+    rec.close(model.num_timesteps)
     returns = list(model.env.episode_returns)
-    assert np.mean(returns) >= 0.85, returns
+    assert np.mean(returns) >= 0.93, returns
+    assert rec.last_usage["optimal"] >= 0.5, rec.last_usage
+    assert rec.last_usage["random_1"] + rec.last_usage["random_2"] <= 0.2, rec.last_usage
+
+
+@pytest.mark.slow
+def test_without_teachers_it_is_ppo_and_learns_cartpole():
+    """The low level and the critic alone (no teachers) must learn CartPole: a random policy
+    scores about 22; 15k steps of a working PPO update reach well over 150."""
+    env = DummyVecEnv([lambda: gym.make("CartPole-v1") for _ in range(4)])
+    env.seed(0)
+    model = TLAC(
+        env,
+        seed=0,
+        n_steps=32,
+        batch_size=64,
+        n_epochs=4,
+        learning_rate=1e-3,
+        gae_lambda=0.95,
+        target_kl=None,
+        optimizer="adam",
+    )
+    model.learn(15_000, progress_bar=False)
+    assert model.env.mean_recent_return() >= 150

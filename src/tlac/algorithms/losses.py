@@ -74,13 +74,6 @@ def masked_clipped_policy_loss(
     return -(surrogate * weight).sum() / weight.sum().clamp(min=1.0)
 
 
-def imitation_loss(log_prob: torch.Tensor, teacher_rows: torch.Tensor) -> torch.Tensor:
-    """Behaviour cloning of the followed teachers: ``-mean log pi(a|s)`` over the rows where a
-    teacher acted (``teacher_rows`` = 1); 0 when there are none. Not in the paper (an opt-in
-    extension, ``imitation_coef``)."""
-    return -(log_prob * teacher_rows).sum() / teacher_rows.sum().clamp(min=1.0)
-
-
 def value_loss(values: torch.Tensor, returns: torch.Tensor) -> torch.Tensor:
     """Squared error of the shared critic against the GAE returns."""
     return ((returns - values) ** 2).mean()

@@ -101,13 +101,6 @@ class TLACConfig:
     net_arch_critic: list[int] = field(default_factory=lambda: [64, 64])
     low_level_data: str = "all"
     """Which transitions train the low level: all (the paper) or agent (only where it acted)."""
-    imitation_coef: float = 0.0
-    """Beyond the paper (0 = off, the paper): weight of a behaviour-cloning term
-    ``-log pi_low(a|s)`` on the transitions where a TEACHER acted. The paper's low level learns
-    from teacher actions only through the advantage, which is near zero once the critic has
-    fitted the teachers' behaviour, so the student alone can stay weak while the training
-    return is high. The high level decides which teachers are followed, so the cloned actions
-    are those of the teachers it trusts. See docs/algorithm.md for measurements."""
     selector: str = "learned"
     """High level: learned (TL-AC), random or ucb1 (per episode) -- the Figure 11 ablations."""
     ucb_c: float = 1.0
@@ -144,7 +137,7 @@ class TLACConfig:
             v = getattr(self, name)
             if not 0.0 <= v <= 1.0:
                 raise ConfigError(f"TL-AC setting {name} must be in [0, 1], got {v!r}")
-        for name in ("vf_coef", "max_grad_norm", "ent_coef", "optimizer_eps", "imitation_coef"):
+        for name in ("vf_coef", "max_grad_norm", "ent_coef", "optimizer_eps"):
             if getattr(self, name) < 0:
                 raise ConfigError(f"TL-AC setting {name} must be >= 0, got {getattr(self, name)!r}")
         if self.optimizer not in ("rmsprop_tf", "adam"):
@@ -181,6 +174,15 @@ def _as_vec_env(env: Any, n_envs: int, seed: int) -> tuple[VecEnv, Any]:
     if find_episode_recorder(venv) is None:
         venv = EpisodeRecorder(venv)
     return venv, None
+
+
+def _teacher_label(teacher: Any, index: int) -> str:
+    """A teacher's name for logs and errors: its ``name``, else a function's ``__name__``."""
+    name = getattr(teacher, "name", None)
+    if isinstance(name, str) and name:
+        return name
+    fn_name = getattr(teacher, "__name__", "")
+    return fn_name if fn_name and fn_name != "<lambda>" else f"teacher{index}"
 
 
 class TLAC:
@@ -228,9 +230,7 @@ class TLAC:
             from tlac.envs import make_teachers
 
             return make_teachers(domain, list(teachers), domain.make_env(), seed)
-        names = unique_names(
-            [getattr(t, "name", None) or f"teacher{i}" for i, t in enumerate(teachers)]
-        )
+        names = unique_names([_teacher_label(t, i) for i, t in enumerate(teachers)])
         return [
             as_teacher(t, self.env.action_space, n) for t, n in zip(teachers, names, strict=True)
         ]
@@ -520,7 +520,6 @@ class TLAC:
         old_log_probs = torch.stack([data["log_prob_low"], data["log_prob_high"]])[
             : 2 if self.train_high else 1
         ]
-        teacher_rows = (data["choices"] < self.n_teachers).float()
         weights = None
         if cfg.low_level_data == "agent":  # the low level learns only where the agent acted
             agent_rows = (data["choices"] == self.n_teachers).float()
@@ -562,10 +561,6 @@ class TLAC:
                     - (self._ent_coefs[: len(entropies)] * entropies).sum()
                     + cfg.vf_coef * vf_loss
                 )
-                if cfg.imitation_coef > 0 and self.n_teachers:
-                    loss = loss + cfg.imitation_coef * losses.imitation_loss(
-                        lp_low, teacher_rows[idx]
-                    )
                 kl = float(kls.max())
                 stats.append(
                     torch.cat(

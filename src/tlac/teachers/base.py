@@ -44,9 +44,8 @@ class FunctionTeacher:
         self.fn, self.action_space, self.name = fn, action_space, name
 
     def predict(self, obs: np.ndarray) -> np.ndarray:
-        actions = [self.fn(o) for o in obs]
-        dtype = np.int64 if isinstance(self.action_space, gym.spaces.Discrete) else np.float32
-        return np.asarray(actions, dtype=dtype)
+        # no cast here: check_actions reports a NaN or an out-of-range value by name
+        return np.asarray([self.fn(o) for o in obs])
 
 
 class SB3Teacher:
