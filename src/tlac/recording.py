@@ -165,10 +165,13 @@ class Recorder:
                     self.last_usage[name] = frac
                 if self._usage_file is not None:
                     self._usage.writerow([timestep, region, name, int(c), f"{frac:.6g}"])
+                if self._progress_file is not None:
+                    self._progress.writerow([timestep, f"teacher/{region}/{name}", f"{frac:.6g}"])
                 if self._tb is not None:
                     self._tb.add_scalar(f"teacher/{region}/{name}", frac, timestep)
-        if self._usage_file is not None:
-            self._usage_file.flush()
+        for f in (self._usage_file, self._progress_file):
+            if f is not None:
+                f.flush()
         self._counts[:] = 0
         self._next_flush = (timestep // self.log_interval + 1) * self.log_interval
 
