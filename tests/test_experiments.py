@@ -364,12 +364,38 @@ def test_failed_runs_are_reported_and_others_continue(
     assert run_status(tmp_path / "out" / "runs" / "doorkey__none__ppo__seed0") == "failed"
 
 
-def test_different_experiment_in_same_dir_is_refused(tmp_path: Path) -> None:
+def test_reusing_dir_checks_finished_runs_settings(tmp_path: Path) -> None:
+    """A changed experiment may reuse DIR (e.g. one more seed) only if its finished runs were made
+    with the settings the new grid asks of them."""
+    data = base_config(
+        steps=300,
+        seeds=[0],
+        eval={"episodes": 0},
+        teacher_eval_episodes=0,
+        teacher_sets={"1optimal": ["optimal"]},
+        algorithms=[{"name": "tlac"}],
+    )
+    config = load_config(write_yaml(tmp_path / "a.yaml", data))
     out = tmp_path / "out"
-    out.mkdir()
-    (out / "experiment.yaml").write_text(yaml.safe_dump(base_config(steps=5)))
-    with pytest.raises(ConfigError, match="holds a different experiment"):
-        run_local(load_config(TINY), out, workers=1, live=False)
+    (run,) = expand_grid(config)
+    # a finished run folder as train_run leaves it (no training needed: it is skipped)
+    folder = out / "runs" / run.name
+    folder.mkdir(parents=True)
+    spec = dict(vars(run.spec), teacher_kinds=["optimal"], preset="doorkey")
+    (folder / "config.yaml").write_text(yaml.safe_dump(spec))
+    (folder / "result.json").write_text('{"finished": true}')
+    summary = run_local(config, out, workers=1, live=False)
+    assert summary.skipped == 1 and not summary.finished
+
+    data["steps"] = 400
+    changed = load_config(write_yaml(tmp_path / "b.yaml", data))
+    with pytest.raises(ConfigError, match=r"finished with steps=300 \(now 400\)"):
+        run_local(changed, out, workers=1, live=False)
+    data["steps"] = 300
+    data["teacher_sets"] = {"1optimal": ["good"]}
+    changed = load_config(write_yaml(tmp_path / "c.yaml", data))
+    with pytest.raises(ConfigError, match=r"teacher_kinds=\['optimal'\] \(now \['good'\]\)"):
+        run_local(changed, out, workers=1, live=False)
 
 
 def test_tiny_grid_ray_runner_and_report(tmp_path: Path) -> None:

@@ -79,21 +79,57 @@ class GridSummary:
 # --------------------------------------------------------------------------- preparing DIR
 
 
+SPEC_FIELDS = (
+    "env",
+    "algo",
+    "seed",
+    "steps",
+    "selector",
+    "overrides",
+    "eval_every",
+    "eval_episodes",
+    "log_interval",
+)
+"""RunSpec fields that must agree between a finished run's ``config.yaml`` and the grid."""
+
+
+def spec_mismatch(spec: RunSpec, folder: Path) -> str | None:
+    """How a finished run's ``config.yaml`` differs from ``spec`` (``"steps=1000 (now 2000)"``),
+    or ``None`` when it was made with the same settings (or has no readable config)."""
+    try:
+        done = yaml.safe_load((folder / "config.yaml").read_text()) or {}
+    except (OSError, yaml.YAMLError):
+        return None
+    wanted = {k: getattr(spec, k) for k in SPEC_FIELDS}
+    wanted["teacher_kinds"] = list(spec.teachers or [])
+    if spec.preset is not None:
+        wanted["preset"] = spec.preset
+    for key, value in wanted.items():
+        if key in done and done[key] != value:
+            return f"{key}={done[key]!r} (now {value!r})"
+    return None
+
+
 def prepare_out_dir(config: ExperimentConfig, out_dir: str | Path) -> Path:
-    """Create ``DIR`` and write ``DIR/experiment.yaml``; refuse a folder that holds another
-    experiment (its ``experiment.yaml`` differs), so that runs of two grids never mix."""
+    """Create ``DIR`` and write the experiment to ``DIR/experiment.yaml``.
+
+    A folder can be reused by a changed experiment file (more seeds, another teacher set...) as
+    long as every run that is already finished there was made with the settings the new grid
+    asks of it; otherwise this raises :class:`ConfigError` naming the run and the setting, so
+    that results of two different grids never mix."""
     out = Path(out_dir)
     (out / RUNS_DIR).mkdir(parents=True, exist_ok=True)
-    target = out / EXPERIMENT_FILE
-    if target.exists():
-        existing = yaml.safe_load(target.read_text())
-        if existing != config.raw:
+    for r in expand_grid(config):
+        folder = run_dir(out, r)
+        if run_status(folder) != "finished":
+            continue
+        why = spec_mismatch(r.spec, folder)
+        if why is not None:
             raise ConfigError(
-                f"{out}: holds a different experiment ({target} differs from {config.source}); "
-                f"use another --out, or delete {target} to reuse the finished runs anyway"
+                f"{folder}: finished with {why} asked by {config.source}; use another --out, "
+                f"or delete that run folder to redo it"
             )
-    else:
-        atomic_write_text(target, yaml.safe_dump(config.raw, sort_keys=False))
+    atomic_write_text(out / EXPERIMENT_FILE, yaml.safe_dump(config.raw, sort_keys=False))
     return out
 
 
@@ -384,8 +420,10 @@ def run_local(
     """Run every unfinished run of ``config`` in ``workers`` parallel processes on this machine."""
     if workers < 1:
         raise ConfigError(f"--workers must be >= 1, got {workers}")
-    out = prepare_out_dir(config, out_dir)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
     with dir_lock(out):
+        prepare_out_dir(config, out)
         evaluate_teachers(config, out)
         todo, skipped = _plan(config, out)
         summary = GridSummary(total=len(todo) + skipped, skipped=skipped)
@@ -484,8 +522,10 @@ def run_ray(
         import ray
     except ImportError as exc:  # pragma: no cover - ray is an optional dependency
         raise ConfigError("--backend ray needs Ray: pip install 'tlac[ray]'") from exc
-    out = prepare_out_dir(config, out_dir)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
     with dir_lock(out):
+        prepare_out_dir(config, out)
         evaluate_teachers(config, out)
         todo, skipped = _plan(config, out)
         summary = GridSummary(total=len(todo) + skipped, skipped=skipped)
