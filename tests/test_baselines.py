@@ -401,46 +401,54 @@ def test_train_run_writes_the_run_folder(algo: str, tmp_path: Path) -> None:
 
 
 # --------------------------------------------------------------------------- learning checks
-def doorkey_training_return(algo_cls: type, teachers: list[str], steps: int, **overrides) -> float:
-    """Mean training return (teacher actions included, as the paper reports) of the last 20
-    episodes of a DoorKey run."""
+def doorkey_run(algo_cls: type, teachers: list[str], steps: int, **overrides) -> tuple[float, dict]:
+    """Train on DoorKey; return the mean training return of the last 20 episodes (teacher
+    actions included, as the paper reports) and the high level's choice fractions over the
+    last quarter of training."""
     from tlac.envs import get_domain, make_teachers
 
     domain = get_domain("doorkey")
     venv = DummyVecEnv([domain.make_env])
     venv.seed(0)
     env = EpisodeRecorder(venv, window=20)
-    preset = load_preset("doorkey", "dqn-tlql" if algo_cls is DQNTLQL else "ac-teach")
-    model = algo_cls(
-        env,
-        make_teachers(domain, teachers, domain.make_env(), 0),
-        seed=0,
-        recorder=None,
-        **(preset | overrides),
-    )
+    algo = "dqn-tlql" if algo_cls is DQNTLQL else "ac-teach"
+    team = make_teachers(domain, teachers, domain.make_env(), 0)
+    recorder = Recorder(None, [t.name for t in team] + ["agent"], log_interval=steps // 4)
+    preset = {k: v for k, v in load_preset("doorkey", algo).items() if k != "n_envs"}
+    model = algo_cls(env, team, seed=0, recorder=recorder, **(preset | overrides))
     model.learn(steps)
-    return env.mean_recent_return() if env.episode_returns else 0.0
+    recorder.flush(model.num_timesteps)
+    ret = env.mean_recent_return() if env.episode_returns else 0.0
+    return ret, dict(recorder.last_usage)
 
 
-# Random advice on DoorKey almost never reaches the goal within 490 steps (return ~0);
-# following the optimal teacher returns ~0.95. 0.6 needs the high level to have learned to
-# prefer the optimal teacher in most episodes.
+# Following the optimal teacher returns ~0.95 on DoorKey; random advice almost never reaches
+# the goal within 490 steps (return ~0). A training return alone cannot tell learning from a
+# high level that never learns: choosing uniformly at every step among {optimal, random,
+# random} already returns ~0.87. So the checks also demand that over the last quarter of
+# training the agent's OWN actions are chosen at least half of the time while the return
+# stays >= 0.6: the student must have learned from the advice (its policy without
+# exploration loops in DoorKey until it has). With random advice the return stays < 0.2.
 THRESHOLD = 0.6
 
 
 @pytest.mark.slow
-def test_dqn_tlql_learns_to_follow_the_optimal_teacher() -> None:
-    good = doorkey_training_return(DQNTLQL, ["optimal", "random"], 10_000)
-    bad = doorkey_training_return(DQNTLQL, ["random", "random"], 10_000)
-    assert good >= THRESHOLD, good
-    assert bad < THRESHOLD / 3, bad
+def test_dqn_tlql_learns_from_the_optimal_teacher() -> None:
+    # learning_rate 1e-3 instead of Table 6's 1e-4 lets the check learn in 10k steps
+    fast = {"learning_rate": 1e-3}
+    good, usage = doorkey_run(DQNTLQL, ["optimal", "random"], 10_000, **fast)
+    assert good >= THRESHOLD, (good, usage)
+    assert usage["agent"] >= 0.5, usage
+    bad, _ = doorkey_run(DQNTLQL, ["random", "random"], 10_000, **fast)
+    assert bad < 0.2, bad
 
 
 @pytest.mark.slow
-def test_ac_teach_learns_to_follow_the_optimal_teacher() -> None:
+def test_ac_teach_learns_from_the_optimal_teacher() -> None:
     # 10 dropout samples instead of 50 keep the check within CI time (docs/baselines/ac-teach.md)
     fast = {"mc_samples": 10}
-    good = doorkey_training_return(ACTeach, ["optimal", "random"], 8_000, **fast)
-    bad = doorkey_training_return(ACTeach, ["random", "random"], 8_000, **fast)
-    assert good >= THRESHOLD, good
-    assert bad < THRESHOLD / 3, bad
+    good, usage = doorkey_run(ACTeach, ["optimal", "random"], 8_000, **fast)
+    assert good >= THRESHOLD, (good, usage)
+    assert usage["agent"] >= 0.5, usage
+    bad, _ = doorkey_run(ACTeach, ["random", "random"], 8_000, **fast)
+    assert bad < 0.2, bad
