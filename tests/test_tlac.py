@@ -220,3 +220,18 @@ def test_without_teachers_it_is_ppo_and_learns_cartpole():
     )
     model.learn(15_000, progress_bar=False)
     assert model.env.mean_recent_return() >= 150
+
+
+def test_an_sb3_model_is_a_teacher_as_it_is(tmp_path):
+    from stable_baselines3 import PPO
+
+    env = DummyVecEnv([lambda: gym.make("CartPole-v1")])
+    sb3_teacher = PPO("MlpPolicy", env, n_steps=32, batch_size=32, seed=0, device="cpu")
+    rec = Recorder(tmp_path, ["ppo", "agent"], log_interval=32, tensorboard=True)
+    model = TLAC(env, teachers=[sb3_teacher], seed=0, recorder=rec, n_steps=16, batch_size=16)
+    model.learn(64, progress_bar=False)
+    rec.close(model.num_timesteps)
+    assert model.teacher_names == ["ppo"]
+    assert list((tmp_path / "tb").glob("events.out.tfevents.*")), "no TensorBoard event file"
+    keys = {line.split(",")[1] for line in (tmp_path / "progress.csv").read_text().splitlines()[1:]}
+    assert {"train/value_loss", "time/fps", "teacher/all/ppo", "teacher/all/agent"} <= keys

@@ -98,9 +98,9 @@ def _cmd_train(args: argparse.Namespace) -> int:
         f"trained {result['steps']} steps in {result['wall_time_s']:.0f} s "
         f"({result['steps_per_s']:.0f} steps/s), {result['episodes']} episodes"
     )
-    print(
-        f"training return, last episodes (teachers included): {result['final_train_return_mean']:.3f}"
-    )
+    if result["final_train_return_mean"] is not None:
+        train_return = result["final_train_return_mean"]
+        print(f"training return, last episodes (teachers included): {train_return:.3f}")
     if result["final_eval_mean"] is not None:
         print(
             f"student alone, {spec.eval_episodes} episodes: "

@@ -225,7 +225,10 @@ def train_run(spec: RunSpec, out_dir: str | Path, progress_bar: bool = False) ->
         "wall_time_s": round(wall, 3),
         "steps_per_s": round(model.num_timesteps / max(wall, 1e-9), 2),
         "episodes": int(recorder_env.episodes_done),
-        "final_train_return_mean": recorder_env.mean_recent_return(),
+        # None (JSON null) when no episode finished, rather than a non-standard NaN
+        "final_train_return_mean": None
+        if not recorder_env.episode_returns
+        else recorder_env.mean_recent_return(),
         "final_eval_mean": eval_rows[-1][1] if eval_rows else None,
         "final_eval_std": eval_rows[-1][2] if eval_rows else None,
     }

@@ -182,7 +182,11 @@ def _teacher_label(teacher: Any, index: int) -> str:
     if isinstance(name, str) and name:
         return name
     fn_name = getattr(teacher, "__name__", "")
-    return fn_name if fn_name and fn_name != "<lambda>" else f"teacher{index}"
+    if fn_name and fn_name != "<lambda>":
+        return fn_name
+    if hasattr(teacher, "predict"):  # a batched object or an SB3 model: its class
+        return type(teacher).__name__.lower()
+    return f"teacher{index}"
 
 
 class TLAC:
