@@ -422,33 +422,80 @@ def doorkey_run(algo_cls: type, teachers: list[str], steps: int, **overrides) ->
     return ret, dict(recorder.last_usage)
 
 
-# Following the optimal teacher returns ~0.95 on DoorKey; random advice almost never reaches
-# the goal within 490 steps (return ~0). A training return alone cannot tell learning from a
-# high level that never learns: choosing uniformly at every step among {optimal, random,
-# random} already returns ~0.87. So the checks also demand that over the last quarter of
-# training the agent's OWN actions are chosen at least half of the time while the return
-# stays >= 0.6: the student must have learned from the advice (its policy without
-# exploration loops in DoorKey until it has). With random advice the return stays < 0.2.
+# DoorKey, the issue's check: with an optimal teacher the training return reaches a threshold
+# that learning from random advice does not (following the optimal teacher returns ~0.95;
+# random advice almost never reaches the goal within 490 steps). On its own it cannot tell
+# learning from a selector that never learns: choosing uniformly at every step among
+# {optimal, random, agent} already returns ~0.87 on DoorKey, because the optimal teacher
+# recovers from any state. The CartPole checks below close that gap.
 THRESHOLD = 0.6
 
 
 @pytest.mark.slow
-def test_dqn_tlql_learns_from_the_optimal_teacher() -> None:
+def test_dqn_tlql_doorkey_optimal_teacher_beats_random_advice() -> None:
     # learning_rate 1e-3 instead of Table 6's 1e-4 lets the check learn in 10k steps
     fast = {"learning_rate": 1e-3}
     good, usage = doorkey_run(DQNTLQL, ["optimal", "random"], 10_000, **fast)
     assert good >= THRESHOLD, (good, usage)
-    assert usage["agent"] >= 0.5, usage
     bad, _ = doorkey_run(DQNTLQL, ["random", "random"], 10_000, **fast)
     assert bad < 0.2, bad
 
 
 @pytest.mark.slow
-def test_ac_teach_learns_from_the_optimal_teacher() -> None:
+def test_ac_teach_doorkey_optimal_teacher_beats_random_advice() -> None:
     # 10 dropout samples instead of 50 keep the check within CI time (docs/baselines/ac-teach.md)
     fast = {"mc_samples": 10}
     good, usage = doorkey_run(ACTeach, ["optimal", "random"], 8_000, **fast)
     assert good >= THRESHOLD, (good, usage)
-    assert usage["agent"] >= 0.5, usage
     bad, _ = doorkey_run(ACTeach, ["random", "random"], 8_000, **fast)
     assert bad < 0.2, bad
+
+
+# CartPole with a good teacher ("balance") and a harmful one ("left", always push left):
+# here the CHOICE matters at every step, so a selector that does not learn fails.
+def uniform_choice_return(episodes: int = 30) -> float:
+    """Mean CartPole return when every step follows balance, left or a random action with
+    probability 1/3 each: what a high level that never learns would get."""
+    env, rng, returns = gym.make("CartPole-v1"), np.random.default_rng(0), []
+    balance = cartpole_teachers()[0]
+    for ep in range(episodes):
+        obs, _ = env.reset(seed=ep)
+        done, total = False, 0.0
+        while not done:
+            c = rng.integers(3)
+            a = int(balance.predict(obs[None])[0]) if c == 0 else (0 if c == 1 else rng.integers(2))
+            obs, r, terminated, truncated, _ = env.step(a)
+            total += float(r)
+            done = terminated or truncated
+        returns.append(total)
+    return float(np.mean(returns))
+
+
+def cartpole_run(algo_cls: type, steps: int, **overrides) -> tuple[float, dict]:
+    env = cartpole()
+    teachers = cartpole_teachers()
+    recorder = Recorder(None, [t.name for t in teachers] + ["agent"], log_interval=steps // 4)
+    algo = "dqn-tlql" if algo_cls is DQNTLQL else "ac-teach"
+    preset = {k: v for k, v in load_preset("doorkey", algo).items() if k != "n_envs"}
+    model = algo_cls(env, teachers, seed=0, recorder=recorder, **(preset | overrides))
+    model.learn(steps)
+    recorder.flush(model.num_timesteps)
+    return env.mean_recent_return(), dict(recorder.last_usage)
+
+
+@pytest.mark.slow
+def test_dqn_tlql_learns_which_teacher_to_follow() -> None:
+    uniform = uniform_choice_return()
+    assert uniform < 50, uniform  # ~28: the harmful teacher topples the pole quickly
+    ret, usage = cartpole_run(DQNTLQL, 10_000, learning_rate=1e-3)
+    assert ret >= 100, (ret, usage)  # seeds 0-2 reach 159-263
+
+
+@pytest.mark.slow
+def test_ac_teach_learns_which_teacher_to_follow() -> None:
+    # tau 0.01 instead of 0.001 (and 10 dropout samples) lets the critic learn in 8k steps.
+    # With an untrained critic, commitment keeps whatever Thompson drew at the episode start
+    # (~1/3 "left"); a learned critic stops proposing "left" (seeds 0-2: 5-12% of choices).
+    ret, usage = cartpole_run(ACTeach, 8_000, mc_samples=10, tau=0.01)
+    assert usage["left"] < 0.15, (ret, usage)
+    assert ret >= 50, (ret, usage)  # uniform choice: ~28
