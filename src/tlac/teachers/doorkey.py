@@ -2,21 +2,31 @@
 
 The paper trained its "optimal" DoorKey teacher with PPO (appendix A.1.1: 0.77 +- 0.38 over
 1000 test episodes, so it failed now and then). A scripted teacher is exactly optimal and
-needs no training: it runs a breadth-first search over the states the agent can reach,
+needs no training. It plans over the states the agent can reach,
 
     (x, y, direction, key taken, door open)
 
 with the actions turn left, turn right, forward, pickup (when facing the key) and toggle
 (when facing the door: opens a locked door only while carrying the key, a closed unlocked
-door always), until a ``forward`` steps onto the goal. Its advice is the first action of a
-shortest such plan, so it picks up the key, opens the door and walks to the goal in the
-fewest steps, whatever happened before (a dropped key, a door closed again): the plan is
-recomputed from each observation. Everything is read from the observation of
+door always); a ``forward`` onto the goal ends a plan. Its advice is the first action of a
+shortest plan, so it picks up the key, opens the door and walks to the goal in the fewest
+steps, whatever happened before (a dropped key, a door closed again): the advice is derived
+afresh from each observation. Everything is read from the observation of
 :mod:`tlac.envs.doorkey`: carrying the key shows as the key missing from the grid, and an
 agent standing in the wall column stands in the open doorway. ``drop`` is never advised.
 
-Observations repeat a lot (one layout yields a few thousand distinct states), so advice is
-memoised by the observation's bytes.
+How it is computed: the exact distance to the goal of every state is tabulated once per
+layout, by a backward breadth-first search, and cached. The states split into four modes
+(key taken, door open); pickup and toggle only ever leave a mode for a later one, so each
+mode's table depends only on what its moves can bump into (the walls and goal; the key's
+cell while the key is on the floor; the door's cell, and whether it is locked, while it is
+shut) and is built from the tables of the modes it leads to. A DoorKey 7x7 layout needs
+three or four tables of 196 entries; there are a few hundred distinct ones in all. The
+advice is then the first of forward, left, right, pickup, toggle whose successor is closest
+to the goal: exactly the first action of the plan that a forward breadth-first search
+expanding the actions in that order finds (the lexicographically first shortest plan),
+which is what this teacher computed before the tables (the tests compare the two). Advice
+is also memoised by the observation's bytes.
 
 >>> from tlac.envs.doorkey import make_doorkey_env
 >>> env, teacher = make_doorkey_env(), DoorKeyOptimalTeacher()
@@ -31,7 +41,7 @@ memoised by the observation's bytes.
 
 from __future__ import annotations
 
-from collections import deque
+import math
 
 import numpy as np
 
@@ -51,113 +61,223 @@ from tlac.envs.doorkey import (
     obs_to_grid,
 )
 
-# MiniGrid's direction vectors: 0 = +x (east), 1 = +y (south), 2 = -x, 3 = -y.
-_DX = (1, 0, -1, 0)
-_DY = (0, 1, 0, -1)
-# Order in which equally short plans are preferred (any order gives a shortest plan).
-_ACTION_ORDER = (FORWARD, LEFT, RIGHT, PICKUP, TOGGLE)
+_INF = 1 << 30
+"""Distance of a state from which the goal cannot be reached."""
+# Cell codes of a layout: what a cell is for every state of the episode.
+_FREE, _WALL, _GOAL = 0, 1, 2
+
+
+class _DistanceTables:
+    """Exact distance to the goal (in actions) of every abstract state, one table per
+    layout and mode, computed on first use and cached.
+
+    A cell is ``x * side + y`` (the flattened observation's order) and a state of a mode is
+    ``cell * 4 + direction``. ``cells`` is the layout: one byte per cell, ``_WALL``,
+    ``_GOAL`` or ``_FREE``. A mode is (key taken ``k``, door open ``o``); its table depends
+    only on what the mode's moves can see: the key's cell while ``not k``, the door's cell
+    while ``not o`` and whether the door is locked while neither.
+    """
+
+    def __init__(self, max_tables: int = 20_000):
+        self.max_tables = max_tables
+        self._tables: dict[tuple[bytes, bool, bool, int, int, bool], list[int]] = {}
+
+    def get(
+        self, cells: bytes, k: bool, o: bool, key_cell: int, door_cell: int, needs_key: bool
+    ) -> list[int]:
+        if k:
+            key_cell = -1
+        if o:
+            door_cell = -1
+        needs_key = needs_key and not (k or o)
+        tag = (cells, k, o, key_cell, door_cell, needs_key)
+        table = self._tables.get(tag)
+        if table is None:
+            table = self._compute(cells, k, o, key_cell, door_cell, needs_key)
+            if len(self._tables) >= self.max_tables:
+                self._tables.clear()
+            self._tables[tag] = table
+        return table
+
+    def _compute(
+        self, cells: bytes, k: bool, o: bool, key_cell: int, door_cell: int, needs_key: bool
+    ) -> list[int]:
+        """Backward breadth-first search from the states one action from leaving the mode:
+        facing the goal (``forward`` ends the episode: distance 1), facing the key (pickup:
+        1 + the distance in mode ``(True, o)``) and facing the door when it can be opened
+        (toggle: 1 + the distance in mode ``(k, True)``). Those exits have different
+        distances, so the search takes them in by increasing distance (Dial's buckets)."""
+        n = len(cells)
+        side = int(round(n**0.5))
+        steps = (side, 1, -side, -1)  # cell offset of one step in each direction
+        passable = [c == _FREE for c in cells]
+        if not k:
+            passable[key_cell] = False
+        if not o:
+            passable[door_cell] = False
+
+        by_value: dict[int, list[int]] = {}
+
+        def add_exits(target: int, upper: list[int] | None) -> None:
+            """Seed the states facing ``target`` with 1 + their distance in ``upper``
+            (1 if ``upper`` is None: target is the goal)."""
+            for d in range(4):
+                c = target - steps[d]
+                if 0 <= c < n and passable[c]:
+                    v = 1 if upper is None else upper[c * 4 + d] + 1
+                    if v < _INF:
+                        by_value.setdefault(v, []).append(c * 4 + d)
+
+        for g in range(n):
+            if cells[g] == _GOAL:
+                add_exits(g, None)
+        if not k:
+            add_exits(key_cell, self.get(cells, True, o, key_cell, door_cell, needs_key))
+        if not o and (k or not needs_key):
+            add_exits(door_cell, self.get(cells, k, True, key_cell, door_cell, needs_key))
+
+        dist = [_INF] * (4 * n)
+        if not by_value:
+            return dist
+        v = min(by_value)
+        frontier = by_value.pop(v)
+        while True:
+            nxt: list[int] = []
+            for s in frontier:
+                if dist[s] != _INF:
+                    continue
+                dist[s] = v
+                d = s & 3
+                # Predecessors: the turns into direction d, and a forward step from behind.
+                q = s - d + ((d + 1) & 3)
+                if dist[q] == _INF:
+                    nxt.append(q)
+                q = s - d + ((d + 3) & 3)
+                if dist[q] == _INF:
+                    nxt.append(q)
+                p = (s >> 2) - steps[d]
+                if 0 <= p < n and passable[p]:
+                    q = p * 4 + d
+                    if dist[q] == _INF:
+                        nxt.append(q)
+            v += 1
+            if v in by_value:
+                nxt += by_value.pop(v)
+            if not nxt:
+                if not by_value:
+                    return dist
+                v = min(by_value)
+                nxt = by_value.pop(v)
+            frontier = nxt
+
+    def first_action(
+        self, cells: bytes, agent: int, d: int, key_cell: int, door_cell: int, door_state: int
+    ) -> int | None:
+        """First action of the shortest plan that the former forward search found:
+        among the actions in the order forward, left, right, pickup, toggle, the first
+        whose successor is closest to the goal. ``key_cell`` / ``door_cell`` are -1 when
+        the key is carried / the door is hidden by the agent (standing in the doorway)."""
+        n = len(cells)
+        side = int(round(n**0.5))
+        front = agent + (side, 1, -side, -1)[d]
+        if cells[front] == _GOAL:
+            return FORWARD
+        k = key_cell < 0
+        o = door_cell < 0 or door_state == DOOR_OPEN
+        needs_key = door_state == DOOR_LOCKED
+        here = self.get(cells, k, o, key_cell, door_cell, needs_key)
+        base = agent * 4
+        # A blocked front cell (wall, key, shut door) has distance _INF in ``here``.
+        best, action = here[front * 4 + d], FORWARD
+        v = here[base + ((d + 3) & 3)]
+        if v < best:
+            best, action = v, LEFT
+        v = here[base + ((d + 1) & 3)]
+        if v < best:
+            best, action = v, RIGHT
+        if not k and front == key_cell:
+            v = self.get(cells, True, o, key_cell, door_cell, needs_key)[base + d]
+            if v < best:
+                best, action = v, PICKUP
+        if not o and front == door_cell and (k or not needs_key):
+            v = self.get(cells, k, True, key_cell, door_cell, needs_key)[base + d]
+            if v < best:
+                best, action = v, TOGGLE
+        return None if best >= _INF else action
+
+    def first_action_of(self, grid: bytes) -> int | None:
+        """:meth:`first_action` for one observation given as the bytes of its ``uint8``
+        grid ``[x, y, channel]`` in C order (decoded with bytes methods: faster than numpy
+        for one small grid). None if there is no plan (or not exactly one agent)."""
+        objects = grid[0::3]
+        if objects.count(AGENT) != 1:
+            return None
+        agent = objects.find(AGENT)
+        key_cell = objects.find(KEY)  # -1: carried
+        door_cell = objects.find(DOOR)  # -1: the agent stands in the doorway
+        door_state = grid[3 * door_cell + 2] if door_cell >= 0 else DOOR_OPEN
+        return self.first_action(
+            objects.translate(_CELL_CODES),
+            agent,
+            grid[3 * agent + 2],
+            key_cell,
+            door_cell,
+            door_state,
+        )
+
+
+_CELL_CODES = bytes(_WALL if i == WALL else _GOAL if i == GOAL else _FREE for i in range(256))
+"""``bytes.translate`` table: object index -> cell code."""
+_SHARED_TABLES = _DistanceTables()
+
+
+def _observation_bytes(obs_batch: np.ndarray) -> list[bytes]:
+    """Flattened observations ``(n, 3 * s * s)`` (or one, ``(3 * s * s,)``) -> one
+    ``bytes`` per observation: its grid ``[x, y, channel]`` as ``uint8`` in C order, the
+    values of :func:`~tlac.envs.doorkey.obs_to_grid` (a few microseconds cheaper than
+    calling it, which matters for one observation per call)."""
+    obs = np.asarray(obs_batch)
+    if obs.ndim == 1:
+        obs = obs[None]
+    if obs.ndim != 2 or math.isqrt(obs.shape[1] // 3) ** 2 * 3 != obs.shape[1]:
+        obs_to_grid(obs)  # raises its ConfigError
+    flat = np.rint(obs).astype(np.int64).astype(np.uint8)
+    width, buf = flat.shape[1], flat.tobytes()
+    return [buf[i : i + width] for i in range(0, len(buf), width)]
 
 
 def plan_first_action(grid: np.ndarray) -> int | None:
     """First action of a shortest plan to the goal from one ``(s, s, 3)`` DoorKey grid
     (indexed ``[x, y, channel]``), or None if the goal cannot be reached."""
-    side = grid.shape[0]
-    objects = grid[..., 0]
-    agent = np.argwhere(objects == AGENT)
-    if len(agent) != 1:
-        return None
-    ax, ay = (int(v) for v in agent[0])
-    adir = int(grid[ax, ay, 2])
-
-    keys = np.argwhere(objects == KEY)
-    key_cell = (int(keys[0][0]), int(keys[0][1])) if len(keys) else None
-    doors = np.argwhere(objects == DOOR)
-    if len(doors):
-        door_cell = (int(doors[0][0]), int(doors[0][1]))
-        door_state = int(grid[door_cell[0], door_cell[1], 2])
-    else:  # the agent hides the door: it stands in the (necessarily open) doorway
-        door_cell, door_state = (ax, ay), DOOR_OPEN
-    # Cells the agent may step onto when the door is open and the key is gone: everything
-    # but walls, the key and a shut door. Goal cells end the plan.
-    blocked = objects == WALL
-    is_goal = objects == GOAL
-
-    start_key = key_cell is None  # key already carried
-    start_open = door_state == DOOR_OPEN
-    needs_key = door_state == DOOR_LOCKED
-
-    def encode(x: int, y: int, d: int, k: bool, o: bool) -> int:
-        return (((x * side + y) * 4 + d) * 2 + k) * 2 + o
-
-    seen = bytearray(side * side * 4 * 4)
-    start = (ax, ay, adir, start_key, start_open)
-    seen[encode(*start)] = 1
-    # Each queue entry carries the first action of the plan that reached it.
-    queue: deque[tuple[int, int, int, bool, bool, int]] = deque()
-
-    def push(state: tuple[int, int, int, bool, bool], first: int) -> None:
-        code = encode(*state)
-        if not seen[code]:
-            seen[code] = 1
-            queue.append((*state, first))
-
-    def expand(x: int, y: int, d: int, k: bool, o: bool, first: int | None) -> int | None:
-        """Push the successors; return the plan's first action if ``forward`` reaches the
-        goal from here."""
-        fx, fy = x + _DX[d], y + _DY[d]
-        front_is_key = key_cell is not None and not k and (fx, fy) == key_cell
-        front_is_door = (fx, fy) == door_cell
-        for action in _ACTION_ORDER:
-            head = action if first is None else first
-            if action == FORWARD:
-                if is_goal[fx, fy]:
-                    return head
-                if blocked[fx, fy] or front_is_key or (front_is_door and not o):
-                    continue
-                push((fx, fy, d, k, o), head)
-            elif action == LEFT:
-                push((x, y, (d + 3) % 4, k, o), head)
-            elif action == RIGHT:
-                push((x, y, (d + 1) % 4, k, o), head)
-            elif action == PICKUP:
-                if front_is_key:
-                    push((x, y, d, True, o), head)
-            elif action == TOGGLE:
-                # MiniGrid's Door.toggle: a locked door opens only for the key's carrier.
-                if front_is_door and not o and (k or not needs_key):
-                    push((x, y, d, k, True), head)
-        return None
-
-    found = expand(*start, None)
-    while found is None and queue:
-        x, y, d, k, o, first = queue.popleft()
-        found = expand(x, y, d, k, o, first)
-    return found
+    return _SHARED_TABLES.first_action_of(_observation_bytes(np.asarray(grid).reshape(-1))[0])
 
 
 class DoorKeyOptimalTeacher:
     """The scripted shortest-path DoorKey teacher (see the module docstring); batched.
 
-    If no plan exists (never in DoorKey's layouts) it advises turning left.
+    If no plan exists (never in DoorKey's layouts) it advises turning left. ``cache_size``
+    bounds the advice memo (by observation); the distance tables (one per layout and mode,
+    a few hundred in DoorKey 7x7) are bounded by ``_DistanceTables.max_tables``.
     """
 
     def __init__(self, name: str = "optimal", cache_size: int = 200_000):
         self.name = name
         self.cache_size = cache_size
         self._cache: dict[bytes, int] = {}
+        self._tables = _DistanceTables()
 
     def predict(self, obs: np.ndarray) -> np.ndarray:
-        grids = obs_to_grid(obs)
+        grids = _observation_bytes(obs)
         actions = np.empty(len(grids), dtype=np.int64)
+        cache = self._cache
         for i, grid in enumerate(grids):
-            key = grid.astype(np.uint8).tobytes()
-            action = self._cache.get(key)
+            action = cache.get(grid)
             if action is None:
-                planned = plan_first_action(grid)
+                planned = self._tables.first_action_of(grid)
                 action = LEFT if planned is None else planned
-                if len(self._cache) >= self.cache_size:
-                    self._cache.clear()
-                self._cache[key] = action
+                if len(cache) >= self.cache_size:
+                    cache.clear()
+                cache[grid] = action
             actions[i] = action
         return actions
 
