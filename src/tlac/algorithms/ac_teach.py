@@ -52,6 +52,7 @@ from tlac.algorithms.dqn_tlql import (
     config_from_kwargs,
     flat_obs,
     linear_epsilon,
+    make_progress_bar,
     polyak_update,
     real_next_obs,
 )
@@ -620,6 +621,7 @@ class ACTeach:
         teacher_acts = self._teacher_actions(obs)
         t0, next_log = time.time(), self.num_timesteps
         cycle_start, losses = self.num_timesteps, {}
+        bar = make_progress_bar(total_timesteps, "AC-Teach", progress_bar)
         while self.num_timesteps < end:
             progress = (self.num_timesteps - start) / max(1, end - start)
             eps = linear_epsilon(
@@ -676,8 +678,12 @@ class ACTeach:
                     next_log = (
                         self.num_timesteps // self.recorder.log_interval + 1
                     ) * self.recorder.log_interval
+                if bar is not None:
+                    bar.update(min(self.num_timesteps, end) - start - bar.n)
                 if callback is not None and callback(self) is False:
                     break
+        if bar is not None:
+            bar.close()
         return self
 
     # ---- inference and persistence

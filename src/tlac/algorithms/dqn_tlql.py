@@ -125,6 +125,19 @@ def checkpoint_path(path: str | Path) -> Path:
     return p if p.suffix == ".pt" else p.with_name(p.name + ".pt")
 
 
+def make_progress_bar(total: int, desc: str, enabled: bool) -> Any:
+    """A tqdm bar over environment steps (live in a terminal, a line every 10 s in a log
+    file), or ``None`` when ``enabled`` is false."""
+    if not enabled:
+        return None
+    import sys
+
+    from tqdm.auto import tqdm
+
+    interval = 0.2 if sys.stderr.isatty() else 10.0
+    return tqdm(total=int(total), unit="step", dynamic_ncols=True, desc=desc, mininterval=interval)
+
+
 def query_teachers(
     teachers: list[Any],
     choices: np.ndarray,
@@ -363,6 +376,7 @@ class DQNTLQL:
         next_target_update = self.num_timesteps + cfg.target_update_interval
         vec_steps, metrics, t0 = 0, {}, time.time()
         next_log = self.num_timesteps + (self.recorder.log_interval if self.recorder else 0)
+        bar = make_progress_bar(total_timesteps, "DQN-TLQL", progress_bar)
         while self.num_timesteps < end_steps:
             progress = (self.num_timesteps - start_steps) / max(1, end_steps - start_steps)
             eps = linear_epsilon(
@@ -407,8 +421,12 @@ class DQNTLQL:
                     next_log = (
                         self.num_timesteps // self.recorder.log_interval + 1
                     ) * self.recorder.log_interval
+                if bar is not None:
+                    bar.update(min(self.num_timesteps, end_steps) - start_steps - bar.n)
                 if callback is not None and callback(self) is False:
                     break
+        if bar is not None:
+            bar.close()
         return self
 
     # ---- inference and persistence
