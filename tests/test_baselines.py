@@ -346,6 +346,18 @@ def test_ac_teach_continuous_reload(tmp_path: Path) -> None:
         ACTeach.load(tmp_path / "m", env=env, teachers=[]).learn(10)
 
 
+def test_ac_teach_is_deterministic_given_a_seed() -> None:
+    def run() -> tuple[list[torch.Tensor], np.ndarray]:
+        env = pendulum(seed=5)
+        m = ACTeach(env, pendulum_teachers(), seed=5, recorder=None, **SMALL_AC_TEACH)
+        m.learn(120)
+        assert m.actor is not None
+        return [p.detach().clone() for p in m.actor.parameters()], m._current.copy()
+
+    (a, ca), (b, cb) = run(), run()
+    assert all(torch.equal(x, y) for x, y in zip(a, b, strict=True)) and np.array_equal(ca, cb)
+
+
 def test_thompson_with_commitment_follows_the_better_teacher() -> None:
     """With a critic that rates teacher 1's action far above the others, the behaviour policy
     picks teacher 1 and stays with it; with the code's sign it never leaves a first choice
