@@ -310,6 +310,7 @@ class TLAC:
                 cfg.ent_coef if cfg.ent_coef_high is None else cfg.ent_coef_high,
             ]
         )
+        self._use_entropy = bool(self._ent_coefs.any())
 
     # ----------------------------------------------------------------- the policies
     def _heads(
@@ -348,24 +349,32 @@ class TLAC:
             return np_gsde_log_std(latent, log_std)
         return np.broadcast_to(log_std, (latent.shape[0], log_std.shape[-1]))
 
-    def _low_log_prob_entropy(
+    def _low_log_prob(
         self, low_out: torch.Tensor, latent: torch.Tensor, actions: torch.Tensor
-    ) -> tuple[torch.Tensor, torch.Tensor]:
-        """log pi_low(actions|s) and the low level's entropy per row (training pass)."""
+    ) -> torch.Tensor:
+        """log pi_low(actions|s) per row (training pass)."""
         if self.discrete:
-            log_probs = torch.log_softmax(low_out, dim=-1)
-            return log_probs.gather(1, actions.view(-1, 1)).squeeze(1), categorical_entropy(
-                log_probs
-            )
-        log_std = self._low_log_std(latent)
-        return gaussian_log_prob(actions, low_out, log_std), gaussian_entropy(log_std)
+            return torch.log_softmax(low_out, dim=-1).gather(1, actions.view(-1, 1)).squeeze(1)
+        return gaussian_log_prob(actions, low_out, self._low_log_std(latent))
+
+    def _mean_entropies(
+        self, high_logits: torch.Tensor, low_out: torch.Tensor, latent: torch.Tensor
+    ) -> torch.Tensor:
+        """Mean entropy of each trained level: ``[H_low]`` or ``[H_low, H_high]``."""
+        if self.discrete:
+            low = categorical_entropy(torch.log_softmax(low_out, -1)).mean()
+        else:
+            low = gaussian_entropy(self._low_log_std(latent)).mean()
+        if not self.train_high:
+            return low[None]
+        return torch.stack([low, categorical_entropy(torch.log_softmax(high_logits, -1)).mean()])
 
     def _np_low_log_prob(
         self, low_out: np.ndarray, latent: np.ndarray, actions: np.ndarray
     ) -> np.ndarray:
         """log pi_low(actions|s) at collection time (acting pass)."""
         if self.discrete:
-            return np.take_along_axis(np_log_softmax(low_out), actions[:, None], axis=1)[:, 0]
+            return np_log_softmax(low_out)[np.arange(len(actions)), actions]
         return np_gaussian_log_prob(actions, low_out, self._np_low_log_std(latent))
 
     def _sample_low(self, low_out: np.ndarray, latent: np.ndarray) -> np.ndarray:
@@ -446,10 +455,10 @@ class TLAC:
     ) -> np.ndarray:
         """Replace the agent's action by the chosen teacher's in every row (Algorithm 1, line 18).
         A teacher is queried only for the rows where it was chosen."""
-        for k in range(self.n_teachers):
-            rows = np.flatnonzero(choices == k)
-            if len(rows) == 0:
+        for k in set(choices.tolist()):
+            if k >= self.n_teachers:
                 continue
+            rows = np.flatnonzero(choices == k)
             teacher = self.teachers[k]
             advice = check_actions(
                 teacher.name, teacher.predict(obs[rows]), self.action_space, len(rows)
@@ -497,9 +506,7 @@ class TLAC:
             ro.dones[t] = dones
             ro.values[t] = values
             ro.log_prob_low[t] = self._np_low_log_prob(low_out, latent, actions)
-            ro.log_prob_high[t] = np.take_along_axis(
-                np_log_softmax(high_logits), choices[:, None], axis=1
-            )[:, 0]
+            ro.log_prob_high[t] = np_log_softmax(high_logits)[np.arange(E), choices]
             self._last_obs = new_obs
             self._episode_starts = np.asarray(dones, dtype=bool)
         last_values = self._act_heads(self._last_obs)[2]
@@ -539,17 +546,15 @@ class TLAC:
                     adv = losses.normalize(adv)
                 high_logits, low_out, values, latent = self._heads(data["obs"][idx])
                 # low level, Eq. 3: log pi_low(a|s) A(s, a) on the EXECUTED actions
-                lp_low, ent_low = self._low_log_prob_entropy(low_out, latent, data["actions"][idx])
+                lp_low = self._low_log_prob(low_out, latent, data["actions"][idx])
                 if self.train_high:
                     # high level, Eq. 7: log pi_high(e|s) A(s, a), the SAME advantage (Eq. 6)
-                    log_probs_high = torch.log_softmax(high_logits, -1)
-                    lp_high = log_probs_high.gather(1, data["choices"][idx].view(-1, 1)).squeeze(1)
-                    log_probs = torch.stack([lp_low, lp_high])
-                    entropies = torch.stack(
-                        [ent_low.mean(), categorical_entropy(log_probs_high).mean()]
+                    lp_high = torch.log_softmax(high_logits, -1).gather(
+                        1, data["choices"][idx].view(-1, 1)
                     )
+                    log_probs = torch.stack([lp_low, lp_high.squeeze(1)])
                 else:
-                    log_probs, entropies = lp_low[None], ent_low.mean()[None]
+                    log_probs = lp_low[None]
                 policy_losses, kls = losses.clipped_policy_losses(
                     log_probs,
                     old_log_probs[:, idx],
@@ -557,20 +562,14 @@ class TLAC:
                     clip,
                     None if weights is None else weights[:, idx],
                 )
-                vf_loss = losses.value_loss(
-                    values, data["returns"][idx]
-                )  # the one shared critic (Eq. 5)
-                loss = (
-                    policy_losses.sum()
-                    - (self._ent_coefs[: len(entropies)] * entropies).sum()
-                    + cfg.vf_coef * vf_loss
-                )
+                # the one shared critic (Eq. 5)
+                vf_loss = losses.value_loss(values, data["returns"][idx])
+                loss = policy_losses.sum() + cfg.vf_coef * vf_loss
+                if self._use_entropy:  # skipped when both coefficients are 0 (Table 5)
+                    entropies = self._mean_entropies(high_logits, low_out, latent)
+                    loss = loss - (self._ent_coefs[: len(entropies)] * entropies).sum()
                 kl = float(kls.max())
-                stats.append(
-                    torch.cat(
-                        [policy_losses.detach(), entropies.detach(), vf_loss.detach()[None], kls]
-                    )
-                )
+                stats.append(torch.cat([policy_losses.detach(), vf_loss.detach()[None], kls]))
                 if target_kl is not None and kl > 1.5 * target_kl:
                     stopped_early = True  # SB3's rule: stop before a step that moves too far
                     break
@@ -581,14 +580,15 @@ class TLAC:
             if stopped_early:
                 break
         levels = ["low", "high"][: old_log_probs.shape[0]]
-        keys = (
-            [f"policy_loss_{lv}" for lv in levels]
-            + [f"entropy_{lv}" for lv in levels]
-            + ["value_loss"]
-        )
+        keys = [f"policy_loss_{lv}" for lv in levels] + ["value_loss"]
         keys += [f"approx_kl_{lv}" for lv in levels]
         means = torch.stack(stats).mean(0).tolist()
         out = {f"train/{k}": v for k, v in zip(keys, means, strict=True)}
+        with torch.no_grad():  # entropies of the last minibatch, for the logs
+            for lv, h in zip(
+                levels, self._mean_entropies(high_logits, low_out, latent).tolist(), strict=True
+            ):
+                out[f"train/entropy_{lv}"] = h
         out.update(
             {
                 "train/learning_rate": lr,

@@ -112,6 +112,9 @@ class FirstActions(gym.ActionWrapper):
         return a
 
 
+_EMPTY_CELL = (OBJECT_TO_IDX["empty"], 0, 0)
+
+
 class FullyObservedDoorKey(DoorKeyEnv):
     """DoorKey whose observation is the full grid, built directly.
 
@@ -122,7 +125,15 @@ class FullyObservedDoorKey(DoorKeyEnv):
     """
 
     def gen_obs(self) -> dict[str, Any]:
-        full = self.grid.encode()
+        # MiniGrid's Grid.encode, without its per-cell get() and visibility-mask checks: the
+        # flat cell list is row-major (index y * width + x), the observation is [x, y, channel]
+        cells = [_EMPTY_CELL if v is None else v.encode() for v in self.grid.grid]
+        full = (
+            np.array(cells, dtype=np.uint8)
+            .reshape(self.height, self.width, 3)
+            .transpose(1, 0, 2)
+            .copy()
+        )
         x, y = self.agent_pos
         full[x, y] = (AGENT, COLOR_TO_IDX["red"], self.agent_dir)
         return {"image": full, "direction": self.agent_dir, "mission": self.mission}
