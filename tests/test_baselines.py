@@ -28,7 +28,8 @@ from tlac.algorithms.ac_teach import (
     dropout_weight_decay,
     switch_probability,
 )
-from tlac.algorithms.dqn_tlql import DQNTLQL, linear_epsilon, real_next_obs, td_targets
+from tlac.algorithms.common import linear_epsilon, real_next_obs, td_targets
+from tlac.algorithms.dqn_tlql import DQNTLQL
 from tlac.algorithms.sb3_baselines import A2CBaseline, PPOBaseline, sb3_kwargs
 from tlac.errors import ConfigError, TeacherError
 from tlac.presets import load_preset

@@ -47,7 +47,7 @@ import torch.nn.functional as F
 from stable_baselines3.common.vec_env import VecEnv
 from torch import nn
 
-from tlac.algorithms.dqn_tlql import (
+from tlac.algorithms.common import (
     checkpoint_path,
     config_from_kwargs,
     flat_obs,

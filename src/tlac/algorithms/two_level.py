@@ -31,6 +31,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 from torch import nn
 
 from tlac.algorithms import losses
+from tlac.algorithms.common import checkpoint_path, make_progress_bar, query_teachers
 from tlac.algorithms.nets import (
     CRITIC,
     HIGH,
@@ -51,7 +52,7 @@ from tlac.errors import ConfigError, UnknownNameError
 from tlac.presets import make_schedule, validate_schedule
 from tlac.recording import EpisodeRecorder, Recorder, find_episode_recorder
 from tlac.selectors import LearnedSelector, RandomSelector, UCB1Selector
-from tlac.teachers.base import Teacher, as_teacher, check_actions, unique_names
+from tlac.teachers.base import Teacher, as_teacher, unique_names
 
 Schedule = float | dict
 
@@ -455,15 +456,7 @@ class TLAC:
     ) -> np.ndarray:
         """Replace the agent's action by the chosen teacher's in every row (Algorithm 1, line 18).
         A teacher is queried only for the rows where it was chosen."""
-        for k in set(choices.tolist()):
-            if k >= self.n_teachers:
-                continue
-            rows = np.flatnonzero(choices == k)
-            teacher = self.teachers[k]
-            advice = check_actions(
-                teacher.name, teacher.predict(obs[rows]), self.action_space, len(rows)
-            )
-            actions[rows] = advice
+        query_teachers(self.teachers, choices, obs, self.action_space, actions)
         return actions
 
     # ----------------------------------------------------------------- Algorithm 1
@@ -626,21 +619,7 @@ class TLAC:
         start_steps = self.num_timesteps
         end_steps = start_steps + int(total_timesteps)
         episodes = find_episode_recorder(self.env)
-        bar = None
-        if progress_bar:
-            import sys
-
-            from tqdm.auto import tqdm
-
-            # in a terminal: live; in a log file: a line every 10 s, not every update
-            interval = 0.2 if sys.stderr.isatty() else 10.0
-            bar = tqdm(
-                total=int(total_timesteps),
-                unit="step",
-                dynamic_ncols=True,
-                desc="TL-AC",
-                mininterval=interval,
-            )
+        bar = make_progress_bar(int(total_timesteps), "TL-AC", progress_bar)
         usage = np.zeros(self.n_choices)
         window: dict[str, list[float]] = {}
         next_log = self._next_log_step(start_steps)
@@ -694,9 +673,7 @@ class TLAC:
     # ----------------------------------------------------------------- persistence
     def save(self, path: str | Path) -> Path:
         """Save the networks, optimizer and settings (never the teachers) to ``path`` (.pt)."""
-        path = Path(path)
-        if path.suffix != ".pt":
-            path = path.with_name(path.name + ".pt")
+        path = checkpoint_path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         state = {
             "format": "tlac.TLAC/1",

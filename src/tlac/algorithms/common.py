@@ -1,0 +1,124 @@
+"""Pieces shared by the algorithms: config building, teacher queries, progress bars,
+target networks, and the truncation-aware next observation."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any, TypeVar
+
+import gymnasium as gym
+import numpy as np
+import torch
+from torch import nn
+
+from tlac.errors import ConfigError
+from tlac.teachers.base import check_actions
+
+C = TypeVar("C")
+
+
+def config_from_kwargs(cls: type[C], algo: str, kwargs: dict[str, Any]) -> C:
+    """Build the frozen config dataclass ``cls`` from preset keys; unknown keys raise
+    :class:`ConfigError` naming the key and listing the accepted ones."""
+    names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    kwargs = {k: v for k, v in kwargs.items() if k != "n_envs"}
+    for key in kwargs:
+        if key not in names:
+            raise ConfigError(
+                f"unknown {algo} hyperparameter {key!r}; expected one of: {', '.join(sorted(names))}"
+            )
+    return cls(**kwargs)
+
+
+def mlp(in_dim: int, hidden: list[int] | tuple[int, ...], out_dim: int) -> nn.Sequential:
+    """A ReLU MLP ``in_dim -> hidden... -> out_dim`` (SB3's DQN ``MlpPolicy`` shape)."""
+    layers: list[nn.Module] = []
+    last = in_dim
+    for h in hidden:
+        layers += [nn.Linear(last, int(h)), nn.ReLU()]
+        last = int(h)
+    layers.append(nn.Linear(last, out_dim))
+    return nn.Sequential(*layers)
+
+
+def linear_epsilon(progress: float, initial: float, final: float, fraction: float) -> float:
+    """Exploration rate after ``progress`` (0 -> 1) of training: linear from ``initial`` to
+    ``final`` over the first ``fraction`` of training, then constant (SB3's DQN schedule).
+
+    >>> linear_epsilon(0.0, 1.0, 0.01, 0.1), linear_epsilon(0.05, 1.0, 0.01, 0.1), linear_epsilon(0.5, 1.0, 0.01, 0.1)
+    (1.0, 0.505, 0.01)
+    """
+    if fraction <= 0 or progress >= fraction:
+        return final
+    return initial + (final - initial) * progress / fraction
+
+
+def td_targets(
+    rewards: torch.Tensor, terminated: torch.Tensor, next_q: torch.Tensor, gamma: float
+) -> torch.Tensor:
+    """One-step Q-learning targets ``r + gamma * (1 - terminated) * max_j next_q[:, j]``.
+    Truncated (time-limit) transitions are not ``terminated``: they bootstrap."""
+    return rewards + gamma * (1.0 - terminated) * next_q.max(dim=1).values
+
+
+def polyak_update(online: nn.Module, target: nn.Module, tau: float) -> None:
+    """``target <- tau * online + (1 - tau) * target`` (SB3's ``polyak_update``)."""
+    with torch.no_grad():
+        for p, tp in zip(online.parameters(), target.parameters(), strict=True):
+            tp.mul_(1.0 - tau).add_(p, alpha=tau)
+
+
+def real_next_obs(
+    next_obs: np.ndarray, dones: np.ndarray, infos: list[dict[str, Any]]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The true next observations (``terminal_observation`` for finished episodes, not the
+    reset observation a VecEnv returns) and the ``terminated`` flags (done and not a
+    time-limit truncation)."""
+    real = np.array(next_obs, copy=True)
+    terminated = np.zeros(len(dones), dtype=np.float32)
+    for i in np.flatnonzero(dones):
+        real[i] = infos[i]["terminal_observation"]
+        terminated[i] = 0.0 if infos[i].get("TimeLimit.truncated", False) else 1.0
+    return real, terminated
+
+
+def flat_obs(obs: np.ndarray, n: int) -> np.ndarray:
+    """Observations as a float32 ``(n, obs_dim)`` array."""
+    return np.asarray(obs, dtype=np.float32).reshape(n, -1)
+
+
+def checkpoint_path(path: str | Path) -> Path:
+    """``path`` with the ``.pt`` suffix (``save`` takes the path without it)."""
+    p = Path(path)
+    return p if p.suffix == ".pt" else p.with_name(p.name + ".pt")
+
+
+def make_progress_bar(total: int, desc: str, enabled: bool) -> Any:
+    """A tqdm bar over environment steps (live in a terminal, a line every 10 s in a log
+    file), or ``None`` when ``enabled`` is false."""
+    if not enabled:
+        return None
+    import sys
+
+    from tqdm.auto import tqdm
+
+    interval = 0.2 if sys.stderr.isatty() else 10.0
+    return tqdm(total=int(total), unit="step", dynamic_ncols=True, desc=desc, mininterval=interval)
+
+
+def query_teachers(
+    teachers: list[Any],
+    choices: np.ndarray,
+    obs: np.ndarray,
+    action_space: gym.Space,
+    out: np.ndarray,
+) -> None:
+    """Write into ``out[i]`` the advice of teacher ``choices[i]`` for every row whose choice
+    is a teacher (``< len(teachers)``); each teacher is asked once, on its rows only."""
+    for k in set(choices.tolist()):
+        if k >= len(teachers):
+            continue  # the agent's own action stays
+        rows = np.flatnonzero(choices == k)
+        teacher = teachers[k]
+        out[rows] = check_actions(teacher.name, teacher.predict(obs[rows]), action_space, len(rows))
