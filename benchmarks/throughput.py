@@ -2,7 +2,7 @@
 
 Both run the paper's DoorKey preset (Table 5: 1 env, 16 steps per update, 5 epochs,
 minibatch 16, RMSpropTFLike, [64, 64] networks) on the same DoorKey 7x7 environment, in one
-process, one after the other, on one thread. TL-AC has three teachers (optimal, random,
+process, in alternating chunks, on one thread. TL-AC has three teachers (optimal, random,
 random) and its high level; PPO has no teachers. Prints steps/s of each and their ratio.
 
     python benchmarks/throughput.py --steps 20000
@@ -43,26 +43,24 @@ def sb3_ppo_settings(preset: dict) -> dict:
     )
 
 
-def _timed(work, steps: int) -> dict[str, float]:
-    """Steps per wall-clock second and per CPU second of this process. On a shared machine
-    the CPU-time figure is the one to compare: other processes do not inflate it."""
+def _timed(work) -> tuple[float, float]:
+    """(wall seconds, CPU seconds of this process) spent in ``work()``."""
     wall, cpu = time.perf_counter(), time.process_time()
     work()
-    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
-    return {"wall": steps / wall, "cpu": steps / cpu}
+    return time.perf_counter() - wall, time.process_time() - cpu
 
 
-def time_tlac(steps: int, seed: int) -> dict[str, float]:
+def make_tlac(seed: int):
     from tlac import TLAC
     from tlac.presets import load_preset
 
     preset = load_preset("doorkey", "tlac")
     model = TLAC("doorkey", teachers=["optimal", "random", "random"], seed=seed, **preset)
-    model.learn(1000, progress_bar=False)  # warm-up
-    return _timed(lambda: model.learn(steps, progress_bar=False), steps)
+    model.learn(1008, progress_bar=False)  # warm-up
+    return lambda steps: model.learn(steps, progress_bar=False)
 
 
-def time_sb3_ppo(steps: int, seed: int) -> dict[str, float]:
+def make_sb3_ppo(seed: int):
     from stable_baselines3 import PPO
 
     from tlac.envs import get_domain
@@ -73,18 +71,34 @@ def time_sb3_ppo(steps: int, seed: int) -> dict[str, float]:
     env = make_vec_env(get_domain("doorkey"), preset["n_envs"], seed, None)
     model = PPO("MlpPolicy", env, seed=seed, device="cpu", **sb3_ppo_settings(preset))
     model.learn(1008)  # warm-up
-    return _timed(lambda: model.learn(steps, reset_num_timesteps=False), steps)
+    return lambda steps: model.learn(steps, reset_num_timesteps=False)
+
+
+def measure(steps: int, seed: int, rounds: int) -> dict[str, dict[str, float]]:
+    """Alternate the two learners in ``rounds`` chunks of ``steps / rounds`` steps each, so
+    that any background load on a shared machine falls on both alike."""
+    learners = {"tlac": make_tlac(seed), "sb3_ppo": make_sb3_ppo(seed)}
+    totals = {name: [0.0, 0.0] for name in learners}
+    chunk = steps // rounds
+    for _ in range(rounds):
+        for name, learn in learners.items():
+            wall, cpu = _timed(lambda learn=learn: learn(chunk))
+            totals[name][0] += wall
+            totals[name][1] += cpu
+    done = chunk * rounds
+    return {name: {"wall": done / w, "cpu": done / c} for name, (w, c) in totals.items()}
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=20_000)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--rounds", type=int, default=4, help="alternating chunks per learner")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     args = parser.parse_args()
     torch.set_num_threads(1)
-    ppo = time_sb3_ppo(args.steps, args.seed)
-    tlac = time_tlac(args.steps, args.seed)
+    measured = measure(args.steps, args.seed, args.rounds)
+    tlac, ppo = measured["tlac"], measured["sb3_ppo"]
     result = {
         "steps": args.steps,
         "tlac_steps_per_cpu_s": round(tlac["cpu"], 1),
