@@ -120,15 +120,11 @@ def register(subparsers: Any) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Standalone entry point: ``python -m tlac.experiments.cli experiment run ...``."""
-    parser = argparse.ArgumentParser(prog="tlac")
-    register(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(argv)
-    try:
-        return int(args.func(args))
-    except TlacError as exc:
-        print(f"tlac: error: {exc}", file=sys.stderr)
-        return 2
+    """Standalone entry point: ``python -m tlac.experiments.cli experiment run ...``, the same
+    as ``tlac experiment run ...`` (one parser, one error handler: :func:`tlac.cli.main`)."""
+    from tlac.cli import main as tlac_main
+
+    return tlac_main(argv)
 
 
 if __name__ == "__main__":
