@@ -134,6 +134,19 @@ def prepare_out_dir(config: ExperimentConfig, out_dir: str | Path) -> Path:
 
 
 @contextlib.contextmanager
+def _grid_session(config: Any, out: Path) -> Iterator[tuple[list[GridRun], GridSummary]]:
+    """What every backend does first, holding the folder's lock throughout: create DIR,
+    check or write its experiment file, measure the teachers once, and plan the unfinished
+    runs. Yields (runs to do, a summary counting the finished ones as skipped)."""
+    out.mkdir(parents=True, exist_ok=True)
+    with dir_lock(out):
+        prepare_out_dir(config, out)
+        evaluate_teachers(config, out)
+        todo, skipped = _plan(config, out)
+        yield todo, GridSummary(total=len(todo) + skipped, skipped=skipped)
+
+
+@contextlib.contextmanager
 def dir_lock(out: Path) -> Iterator[None]:
     """An exclusive lock on ``DIR/.lock`` for the driver's lifetime (released even on SIGKILL)."""
     fd = os.open(out / LOCK_FILE, os.O_CREAT | os.O_RDWR, 0o644)
@@ -421,12 +434,7 @@ def run_local(
     if workers < 1:
         raise ConfigError(f"--workers must be >= 1, got {workers}")
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    with dir_lock(out):
-        prepare_out_dir(config, out)
-        evaluate_teachers(config, out)
-        todo, skipped = _plan(config, out)
-        summary = GridSummary(total=len(todo) + skipped, skipped=skipped)
+    with _grid_session(config, out) as (todo, summary):
         if not todo:
             return summary
         import multiprocessing
@@ -445,7 +453,7 @@ def run_local(
         futures: dict[Future[dict[str, Any]], GridRun] = {}
         queue = list(todo)
         try:
-            with Display(todo, skipped, out, workers, live=live) as display:
+            with Display(todo, summary.skipped, out, workers, live=live) as display:
 
                 def submit_more() -> None:
                     # keep exactly `workers` runs in flight, so "running" is what really runs
@@ -523,12 +531,7 @@ def run_ray(
     except ImportError as exc:  # pragma: no cover - ray is an optional dependency
         raise ConfigError("--backend ray needs Ray: pip install 'tlac[ray]'") from exc
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    with dir_lock(out):
-        prepare_out_dir(config, out)
-        evaluate_teachers(config, out)
-        todo, skipped = _plan(config, out)
-        summary = GridSummary(total=len(todo) + skipped, skipped=skipped)
+    with _grid_session(config, out) as (todo, summary):
         if not todo:
             return summary
         kwargs: dict[str, Any] = {
@@ -550,7 +553,7 @@ def run_ray(
         refs: dict[Any, GridRun] = {}
         queue = list(todo)
         try:
-            with Display(todo, skipped, out, in_flight, live=live) as display:
+            with Display(todo, summary.skipped, out, in_flight, live=live) as display:
                 display.peek = False  # the folders appear only when a task returns
                 while queue or refs:
                     while queue and len(refs) < in_flight:
