@@ -13,6 +13,7 @@ evaluate the exported deterministic actor over at least 100 episodes and write
 
 from __future__ import annotations
 
+import copy
 import json
 import os
 import platform
@@ -161,7 +162,7 @@ def train_teacher(
     )
 
     env = Monitor(get_domain(env_name).make_env(), str(work / "monitor"), override_existing=False)
-    hp = SAC_HYPERPARAMS[env_name]
+    hp = copy.deepcopy(SAC_HYPERPARAMS[env_name])  # SB3 mutates policy_kwargs
     state: dict[str, Any] = {"wall_s": 0.0}
     if ckpt.is_file():
         model = SAC.load(ckpt, env=env, device="cpu")
