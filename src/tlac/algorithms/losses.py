@@ -31,31 +31,36 @@ def clipped_policy_losses(
     advantages: torch.Tensor,
     clip_range: float,
     weights: torch.Tensor | None = None,
+    kl_weights: torch.Tensor | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """The clipped loss and approximate KL of SEVERAL policies at once.
 
     ``log_prob`` and ``old_log_prob`` are ``(L, B)``: one row per level (TL-AC stacks the low
     level, Eq. 3, and the high level, Eq. 7), all sharing the advantages ``(B,)`` (Eq. 6).
-    ``weights`` ``(L, B)`` (0/1) restricts a row to some samples. Returns two ``(L,)`` tensors:
-    each row's loss (as :func:`clipped_policy_loss`) and its :func:`approx_kl`.
+    ``weights`` ``(L, B)`` (0/1) restricts a row's loss to some samples, ``kl_weights`` its KL
+    estimate (default: ``weights``). Returns two ``(L,)`` tensors: each row's loss (as
+    :func:`clipped_policy_loss`) and its :func:`approx_kl`.
 
     >>> lp = torch.log(torch.tensor([[1.5, 1.0], [1.0, 0.5]]))
     >>> loss, kl = clipped_policy_losses(lp, torch.zeros(2, 2), torch.tensor([1.0, -1.0]), 0.2)
-    >>> loss.tolist()  # row 0: -(1.2 - 1) / 2 ; row 1: -(1 - 0.8) / 2
-    [-0.10000000149011612, -0.10000000149011612]
+    >>> [round(v, 6) for v in loss.tolist()]  # row 0: -(1.2 - 1) / 2 ; row 1: -(1 - 0.8) / 2
+    [-0.1, -0.1]
     """
     log_ratio = log_prob - old_log_prob
     ratio = torch.exp(log_ratio)
     surrogate = torch.min(
         ratio * advantages, torch.clamp(ratio, 1.0 - clip_range, 1.0 + clip_range) * advantages
     )
-    kl_terms = (ratio - 1) - log_ratio
+    kl_terms = ((ratio - 1) - log_ratio).detach()
+    loss = -_weighted_mean(surrogate, weights)
+    return loss, _weighted_mean(kl_terms, weights if kl_weights is None else kl_weights)
+
+
+def _weighted_mean(x: torch.Tensor, weights: torch.Tensor | None) -> torch.Tensor:
+    """Mean over the last axis, over the rows' weighted samples (0 where a row has none)."""
     if weights is None:
-        return -surrogate.mean(dim=1), kl_terms.mean(dim=1).detach()
-    count = weights.sum(dim=1).clamp(min=1.0)
-    return -(surrogate * weights).sum(dim=1) / count, (
-        (kl_terms * weights).sum(dim=1) / count
-    ).detach()
+        return x.mean(dim=1)
+    return (x * weights).sum(dim=1) / weights.sum(dim=1).clamp(min=1.0)
 
 
 def masked_clipped_policy_loss(

@@ -524,10 +524,16 @@ class TLAC:
         old_log_probs = torch.stack([data["log_prob_low"], data["log_prob_high"]])[
             : 2 if self.train_high else 1
         ]
+        # The approximate KL of the target-KL stop is an expectation under the BEHAVIOUR
+        # policy, so the low level's is estimated on the rows where the agent acted: a
+        # teacher's action is not a sample of pi_low, and its ratio says nothing about how far
+        # pi_low moved (on such rows the KL estimate explodes and would stop every update
+        # after one step). The high level chose on every row.
+        agent_rows = (data["choices"] == self.n_teachers).float()
+        kl_weights = torch.stack([agent_rows, torch.ones(n)])[: old_log_probs.shape[0]]
         weights = None
         if cfg.low_level_data == "agent":  # the low level learns only where the agent acted
-            agent_rows = (data["choices"] == self.n_teachers).float()
-            weights = torch.stack([agent_rows, torch.ones(n)])[: old_log_probs.shape[0]]
+            weights = kl_weights
         stats: list[torch.Tensor] = []
         stopped_early = False
         for _epoch in range(cfg.n_epochs):
@@ -554,6 +560,7 @@ class TLAC:
                     adv,
                     clip,
                     None if weights is None else weights[:, idx],
+                    kl_weights[:, idx],
                 )
                 # the one shared critic (Eq. 5)
                 vf_loss = losses.value_loss(values, data["returns"][idx])
