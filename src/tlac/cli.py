@@ -21,6 +21,7 @@ from typing import Any
 
 import yaml
 
+from tlac.argtypes import non_negative_int, positive_int
 from tlac.errors import ConfigError, TlacError
 
 
@@ -29,26 +30,6 @@ class _Parser(argparse.ArgumentParser):
 
     def error(self, message: str) -> None:  # type: ignore[override]
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(float(text)) if "e" in text.lower() else int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
-    return value
-
-
-def _non_negative_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}")
-    return value
 
 
 def _parse_overrides(pairs: list[str]) -> dict[str, Any]:
@@ -212,9 +193,9 @@ def build_parser() -> argparse.ArgumentParser:
         "default set); NAME:P mixes NAME with random actions, P = P(NAME's action)",
     )
     train.add_argument(
-        "--steps", type=_positive_int, default=50_000, help="environment steps (default 50000)"
+        "--steps", type=positive_int, default=50_000, help="environment steps (default 50000)"
     )
-    train.add_argument("--seed", type=_non_negative_int, default=0)
+    train.add_argument("--seed", type=non_negative_int, default=0)
     train.add_argument("--out", default=None, help="run folder (default runs/ENV__ALGO__seedSEED)")
     train.add_argument(
         "--selector",
@@ -234,18 +215,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     train.add_argument(
         "--eval-every",
-        type=_positive_int,
+        type=positive_int,
         default=None,
         help="evaluate the student alone every N steps (default: at the end only)",
     )
     train.add_argument(
         "--eval-episodes",
-        type=_non_negative_int,
+        type=non_negative_int,
         default=20,
         help="episodes per student-alone evaluation (default 20)",
     )
     train.add_argument(
-        "--log-interval", type=_positive_int, default=2000, help="steps per logging window"
+        "--log-interval", type=positive_int, default=2000, help="steps per logging window"
     )
     train.add_argument(
         "--tensorboard", action="store_true", help="also write TensorBoard logs to RUN/tb"
@@ -257,9 +238,9 @@ def build_parser() -> argparse.ArgumentParser:
         "eval", help="evaluate a run's student alone (and optionally with its teachers)"
     )
     ev.add_argument("run_dir", help="a run folder written by `tlac train`")
-    ev.add_argument("--episodes", type=_positive_int, default=100)
+    ev.add_argument("--episodes", type=positive_int, default=100)
     ev.add_argument(
-        "--seed", type=_non_negative_int, default=123_456, help="seed of the first episode"
+        "--seed", type=non_negative_int, default=123_456, help="seed of the first episode"
     )
     ev.add_argument(
         "--with-teachers",

@@ -19,24 +19,8 @@ import sys
 import time
 from typing import Any
 
+from tlac.argtypes import non_negative_int, positive_int
 from tlac.errors import ConfigError
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
-    return value
-
-
-def _int(text: str) -> int:
-    try:
-        return int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
 
 
 def register(subparsers: Any) -> argparse.ArgumentParser:
@@ -55,8 +39,8 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
         "and write <out>/<env>-sac.pt and <env>-sac.json.",
     )
     train.add_argument("env", help="hopper-bullet or hopper")
-    train.add_argument("--steps", type=_positive_int, default=1_000_000)
-    train.add_argument("--seed", type=_int, default=0)
+    train.add_argument("--steps", type=positive_int, default=1_000_000)
+    train.add_argument("--seed", type=non_negative_int, default=0)
     train.add_argument("--out", default="src/tlac/data/teachers", help="where to write weights")
     train.add_argument(
         "--work-dir", default=None, help="checkpoint folder (default runs/teachers/<env>-seed<S>)"
@@ -67,7 +51,7 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
         default=None,
         help="stop training after this many seconds, then evaluate and export what was reached",
     )
-    train.add_argument("--eval-episodes", type=_positive_int, default=100)
+    train.add_argument("--eval-episodes", type=positive_int, default=100)
     train.add_argument("--no-progress", action="store_true", help="no progress bar")
     train.set_defaults(func=_train)
 
@@ -78,9 +62,9 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     )
     ev.add_argument("env", help="a domain name (doorkey, hopper-bullet, hopper, pickplace)")
     ev.add_argument("--teachers", default=None, help="comma-separated teacher names (default: all)")
-    ev.add_argument("--episodes", type=_positive_int, default=100)
-    ev.add_argument("--seed", type=_int, default=0)
-    ev.add_argument("--n-envs", type=_positive_int, default=8)
+    ev.add_argument("--episodes", type=positive_int, default=100)
+    ev.add_argument("--seed", type=non_negative_int, default=0)
+    ev.add_argument("--n-envs", type=positive_int, default=8)
     ev.add_argument("--json", action="store_true", help="print one JSON object")
     ev.set_defaults(func=_eval)
     return teacher
@@ -157,18 +141,11 @@ def _eval(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Stand-alone entry point: ``python -m tlac.teachers.cli train|eval ...``."""
-    from tlac.errors import TlacError
+    """Stand-alone entry point: ``python -m tlac.teachers.cli train|eval ...``, the same as
+    ``tlac teacher train|eval ...`` (one parser, one error handler: :func:`tlac.cli.main`)."""
+    from tlac.cli import main as tlac_main
 
-    parser = argparse.ArgumentParser(prog="tlac")
-    subparsers = parser.add_subparsers(dest="command")
-    register(subparsers)
-    args = parser.parse_args(["teacher", *(sys.argv[1:] if argv is None else argv)])
-    try:
-        return int(args.func(args))
-    except TlacError as exc:
-        print(f"tlac: error: {exc}", file=sys.stderr)
-        return 2
+    return tlac_main(["teacher", *(sys.argv[1:] if argv is None else argv)])
 
 
 if __name__ == "__main__":
