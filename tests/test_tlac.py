@@ -235,3 +235,28 @@ def test_an_sb3_model_is_a_teacher_as_it_is(tmp_path):
     assert list((tmp_path / "tb").glob("events.out.tfevents.*")), "no TensorBoard event file"
     keys = {line.split(",")[1] for line in (tmp_path / "progress.csv").read_text().splitlines()[1:]}
     assert {"train/value_loss", "time/fps", "teacher/all/ppo", "teacher/all/agent"} <= keys
+
+
+@pytest.mark.parametrize(
+    ("env", "teachers"),
+    [
+        ("hopper-bullet", ["optimal", "random"]),
+        ("hopper", ["good", "noisy"]),
+        ("pickplace", ["pick", "place"]),
+    ],
+)
+def test_smoke_on_the_continuous_domains_with_their_presets(env, teachers):
+    """TL-AC with the paper's Table 8 / Table 10 settings (4 envs, gSDE, schedules) on the
+    continuous domains and their teachers."""
+    from tlac.presets import load_preset
+    from tlac.run import RunSpec
+
+    preset = load_preset(RunSpec(env=env).resolved_preset(), "tlac")
+    preset["n_epochs"] = 2
+    model = TLAC(env, teachers=teachers, seed=0, **preset)
+    model.learn(preset["n_envs"] * preset["n_steps"] * 2, progress_bar=False)
+    assert model.config.use_sde and model.log_std is not None
+    obs = model.env.reset()
+    actions, _ = model.predict(obs)
+    assert actions.shape == (preset["n_envs"], *model.action_space.shape)
+    assert np.all(np.abs(actions) <= 1.0)
