@@ -63,22 +63,6 @@ def _weighted_mean(x: torch.Tensor, weights: torch.Tensor | None) -> torch.Tenso
     return (x * weights).sum(dim=1) / weights.sum(dim=1).clamp(min=1.0)
 
 
-def masked_clipped_policy_loss(
-    log_prob: torch.Tensor,
-    old_log_prob: torch.Tensor,
-    advantages: torch.Tensor,
-    clip_range: float,
-    mask: torch.Tensor,
-) -> torch.Tensor:
-    """The clipped loss over the rows where ``mask`` is true (0 when none is)."""
-    ratio = torch.exp(log_prob - old_log_prob)
-    surrogate = torch.min(
-        ratio * advantages, torch.clamp(ratio, 1.0 - clip_range, 1.0 + clip_range) * advantages
-    )
-    weight = mask.float()
-    return -(surrogate * weight).sum() / weight.sum().clamp(min=1.0)
-
-
 def value_loss(values: torch.Tensor, returns: torch.Tensor) -> torch.Tensor:
     """Squared error of the shared critic against the GAE returns."""
     return ((returns - values) ** 2).mean()

@@ -256,8 +256,6 @@ class TLAC:
             low_out = int(action_space.n)
         elif isinstance(action_space, gym.spaces.Box):
             low_out = int(np.prod(action_space.shape))
-            self._act_low = torch.as_tensor(action_space.low, dtype=torch.float32)
-            self._act_high = torch.as_tensor(action_space.high, dtype=torch.float32)
         else:
             raise ConfigError(f"TL-AC supports Discrete and Box action spaces, got {action_space}")
         if cfg.use_sde and self.discrete:
