@@ -134,6 +134,11 @@ class Recorder:
             w.writerow(header)
         return f, w
 
+    def window_end_after(self, timestep: int) -> int:
+        """The first multiple of ``log_interval`` after ``timestep``: where the logging window
+        that contains ``timestep`` ends (algorithms log their metrics on the same grid)."""
+        return (timestep // self.log_interval + 1) * self.log_interval
+
     def record_selections(self, timestep: int, choices: np.ndarray, obs: np.ndarray) -> None:
         """Count the high level's choices (ints into ``choice_names``) made in states ``obs``
         (first axis aligned with ``choices``); flushes a window when ``timestep`` passes it."""
@@ -150,7 +155,7 @@ class Recorder:
     def flush(self, timestep: int) -> None:
         """Write the current window's usage rows (overall and per region) and start a new one."""
         if self._counts.sum() == 0:
-            self._next_flush = (timestep // self.log_interval + 1) * self.log_interval
+            self._next_flush = self.window_end_after(timestep)
             return
         rows = [("all", self._counts.sum(axis=0))]
         if len(self.region_names) > 1:
@@ -173,7 +178,7 @@ class Recorder:
             if f is not None:
                 f.flush()
         self._counts[:] = 0
-        self._next_flush = (timestep // self.log_interval + 1) * self.log_interval
+        self._next_flush = self.window_end_after(timestep)
 
     def record_metrics(self, timestep: int, metrics: dict[str, float]) -> None:
         """Write scalars under the fixed namespaces (``train/``, ``rollout/``, ``time/``)."""

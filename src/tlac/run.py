@@ -218,17 +218,14 @@ def train_run(spec: RunSpec, out_dir: str | Path, progress_bar: bool = False) ->
         evaluate(model.num_timesteps)
     for name in ("checkpoint.pt", "checkpoint.zip"):
         (out / name).unlink(missing_ok=True)
-    recorder_env = venv
     result = {
         "finished": True,
         "steps": int(model.num_timesteps),
         "wall_time_s": round(wall, 3),
         "steps_per_s": round(model.num_timesteps / max(wall, 1e-9), 2),
-        "episodes": int(recorder_env.episodes_done),
+        "episodes": int(venv.episodes_done),
         # None (JSON null) when no episode finished, rather than a non-standard NaN
-        "final_train_return_mean": None
-        if not recorder_env.episode_returns
-        else recorder_env.mean_recent_return(),
+        "final_train_return_mean": None if not venv.episode_returns else venv.mean_recent_return(),
         "final_eval_mean": eval_rows[-1][1] if eval_rows else None,
         "final_eval_std": eval_rows[-1][2] if eval_rows else None,
     }

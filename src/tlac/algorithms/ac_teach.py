@@ -675,9 +675,7 @@ class ACTeach:
                         },
                     )
                     self._switches = 0
-                    next_log = (
-                        self.num_timesteps // self.recorder.log_interval + 1
-                    ) * self.recorder.log_interval
+                    next_log = self.recorder.window_end_after(self.num_timesteps)
                 if bar is not None:
                     bar.update(min(self.num_timesteps, end) - start - bar.n)
                 if callback is not None and callback(self) is False:

@@ -322,9 +322,7 @@ class DQNTLQL:
                         self.num_timesteps,
                         {**metrics, "rollout/exploration_rate": eps, "time/fps": fps},
                     )
-                    next_log = (
-                        self.num_timesteps // self.recorder.log_interval + 1
-                    ) * self.recorder.log_interval
+                    next_log = self.recorder.window_end_after(self.num_timesteps)
                 if bar is not None:
                     bar.update(min(self.num_timesteps, end_steps) - start_steps - bar.n)
                 if callback is not None and callback(self) is False:

@@ -627,7 +627,7 @@ class TLAC:
         bar = make_progress_bar(int(total_timesteps), "TL-AC", progress_bar)
         usage = np.zeros(self.n_choices)
         window: dict[str, list[float]] = {}
-        next_log = self._next_log_step(start_steps)
+        next_log = self.recorder.window_end_after(start_steps) if self.recorder else 0
         t0 = time.time()
         last_bar = 0.0
         while self.num_timesteps < end_steps:
@@ -647,7 +647,7 @@ class TLAC:
                     metrics["rollout/ep_rew_mean"] = episodes.mean_recent_return()
                 self.recorder.record_metrics(self.num_timesteps, metrics)
                 window.clear()
-                next_log = self._next_log_step(self.num_timesteps)
+                next_log = self.recorder.window_end_after(self.num_timesteps)
             if bar is not None:
                 bar.update(min(self.num_timesteps, end_steps) - bar.n - start_steps)
                 now = time.time()
@@ -661,10 +661,6 @@ class TLAC:
             bar.set_postfix_str(self._bar_text(episodes, usage), refresh=False)
             bar.close()
         return self
-
-    def _next_log_step(self, now: int) -> int:
-        interval = self.recorder.log_interval if self.recorder is not None else 2000
-        return (now // interval + 1) * interval
 
     def _bar_text(self, episodes: EpisodeRecorder | None, usage: np.ndarray) -> str:
         ret = episodes.mean_recent_return() if episodes is not None else float("nan")
