@@ -193,7 +193,7 @@ def env() -> gym.Env:
 def test_spaces_and_check_env(env):
     assert env.action_space == gym.spaces.Discrete(6)
     assert env.observation_space.shape == (147,)
-    assert env.observation_space.dtype == np.float32
+    assert env.observation_space.dtype == np.uint8  # category indices (tlac.algorithms.encoding)
     check_env(env.unwrapped, skip_render_check=True)
     check_env(env, skip_render_check=True)
 

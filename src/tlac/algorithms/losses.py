@@ -63,6 +63,38 @@ def _weighted_mean(x: torch.Tensor, weights: torch.Tensor | None) -> torch.Tenso
     return (x * weights).sum(dim=1) / weights.sum(dim=1).clamp(min=1.0)
 
 
+def imitation_loss(neg_log_likelihoods: torch.Tensor, trust: torch.Tensor) -> torch.Tensor:
+    """The graduate variant's imitation term: ``mean_s sum_k trust[s, k] * nll[k, s]``.
+
+    ``neg_log_likelihoods`` ``(K, B)``: how far the low level is from teacher ``k``'s action in
+    state ``s``; ``trust`` ``(B, K)``: the high level's probability of choosing teacher ``k``
+    in ``s`` (no gradient). The agent's own probability weighs nothing, so the imitation of a
+    state fades as the high level hands it to the agent (docs/graduation.md).
+
+    >>> nll = torch.tensor([[2.0, 1.0], [4.0, 3.0]])   # 2 teachers, 2 states
+    >>> trust = torch.tensor([[0.5, 0.25], [0.0, 1.0]])
+    >>> float(imitation_loss(nll, trust))   # ((0.5*2 + 0.25*4) + (0*1 + 1*3)) / 2
+    2.5
+    """
+    return (trust.T * neg_log_likelihoods).sum(0).mean()
+
+
+def scaled_squared_error(
+    mean: torch.Tensor, targets: torch.Tensor, half_width: torch.Tensor | None
+) -> torch.Tensor:
+    """``(K, B)``: ``0.5 * mean_d ((mean - targets[k]) / half_width)^2`` for Box actions: the
+    negative log-likelihood, up to a constant, of a unit-variance Gaussian in units of the
+    action box's half-width.
+
+    >>> m = torch.tensor([[0.0, 1.0]])
+    >>> t = torch.tensor([[[1.0, 1.0]], [[0.0, -1.0]]])
+    >>> scaled_squared_error(m, t, torch.tensor([1.0, 2.0])).tolist()   # 0.5*(1+0)/2, 0.5*(0+1)/2
+    [[0.25], [0.25]]
+    """
+    scale = 1.0 if half_width is None else half_width
+    return 0.5 * (((mean.unsqueeze(0) - targets) / scale) ** 2).mean(-1)
+
+
 def value_loss(values: torch.Tensor, returns: torch.Tensor) -> torch.Tensor:
     """Squared error of the shared critic against the GAE returns."""
     return ((returns - values) ** 2).mean()

@@ -29,6 +29,7 @@ class Rollout:
     log_prob_high: np.ndarray  # (T, E): log pi_high(e_t | s_t) at collection time
     advantages: np.ndarray  # (T, E), filled by compute_gae
     returns: np.ndarray  # (T, E), filled by compute_gae
+    solo: np.ndarray  # (T, E) float32: 1 in an episode the student plays alone (graduation)
 
     @classmethod
     def empty(
@@ -47,6 +48,7 @@ class Rollout:
             log_prob_high=z(*te),
             advantages=z(*te),
             returns=z(*te),
+            solo=z(*te),
         )
 
     def flat(self) -> dict[str, torch.Tensor]:

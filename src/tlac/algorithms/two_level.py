@@ -32,6 +32,8 @@ from torch import nn
 
 from tlac.algorithms import losses
 from tlac.algorithms.common import checkpoint_path, make_progress_bar, query_teachers
+from tlac.algorithms.encoding import ENCODINGS, make_encoder
+from tlac.algorithms.graduation import AdviceBuffer, SoloEpisodes
 from tlac.algorithms.nets import (
     CRITIC,
     HIGH,
@@ -55,6 +57,26 @@ from tlac.selectors import LearnedSelector, RandomSelector, UCB1Selector
 from tlac.teachers.base import Teacher, as_teacher, unique_names
 
 Schedule = float | dict
+
+VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
+    "graduate": {
+        "distill_coef": 1.0,
+        "advice_cost": 0.0,
+        "low_level_data": "agent",
+        "solo_budget": 0.05,
+        "kl_rows": "high",
+        "obs_encoding": "auto",
+    },
+    "paper": {
+        "distill_coef": 0.0,
+        "advice_cost": 0.0,
+        "low_level_data": "all",
+        "solo_budget": 0.0,
+        "kl_rows": "agent",
+        "obs_encoding": "raw",
+    },
+}
+"""What each TL-AC variant sets when the corresponding setting is left at None."""
 
 
 @dataclass
@@ -100,14 +122,54 @@ class TLACConfig:
     net_arch_high: list[int] = field(default_factory=lambda: [64, 64])
     net_arch_low: list[int] = field(default_factory=lambda: [64, 64])
     net_arch_critic: list[int] = field(default_factory=lambda: [64, 64])
-    low_level_data: str = "all"
-    """Which transitions train the low level: all (the paper) or agent (only where it acted)."""
+    variant: str = "graduate"
+    """graduate (the default): the paper's TL-AC plus what makes the student act well ALONE
+    (imitation of the teachers the high level trusts, an advice cost, on-policy low-level
+    gradients; docs/graduation.md). paper: Algorithm 1 exactly, for reproductions. The
+    variant only sets the defaults of distill_coef, advice_cost and low_level_data."""
+    distill_coef: Schedule | None = None
+    """Weight of the low level's imitation of the teachers, each weighted per state by the high
+    level's probability of choosing it (docs/graduation.md); number or {linear: [start, end]}.
+    None: the variant's (graduate 1.0, paper 0)."""
+    advice_cost: float | None = None
+    """Subtracted from the high level's (normalised) advantage wherever a teacher acted, so that
+    control passes to the agent once its actions are about as good. None: the variant's
+    (graduate 0.1, paper 0)."""
+    imitation_buffer_size: int = 50_000
+    """States (with every teacher's advice) kept for the imitation term (DAgger's data set)."""
+    imitation_batch_size: int = 64
+    """Replayed states in each gradient step's imitation term."""
+    solo_budget: float | None = None
+    """Graduation by solo episodes: an episode is played by the student alone with probability
+    min(1, solo_budget / (1 - competence)), competence measured from recent solo and assisted
+    returns (tlac.algorithms.graduation), so solo play costs the training return about
+    solo_budget of the teachers' margin. None: the variant's (graduate 0.05, paper 0)."""
+    kl_rows: str | None = None
+    """Which rows give the low level's approximate KL for the target-KL stop: agent (where the
+    agent acted: pi_low's own samples), all (every row, as a PPO built on SB3 computes it) or
+    high (none: only the high level's KL stops the epochs, since the imitation term moves
+    pi_low on purpose). None: the variant's (graduate high, paper agent)."""
+    obs_encoding: str | None = None
+    """raw, onehot (each integer observation dimension as indicators) or auto (onehot for an
+    integer-dtype Box with small ranges, else raw; tlac.algorithms.encoding). None: the
+    variant's (graduate auto, paper raw)."""
+    low_level_data: str | None = None
+    """Which transitions train the low level's policy gradient: all (the paper, Eq. 3 on every
+    executed action) or agent (only where it acted, so every ratio is an importance weight of
+    pi_low's own samples). None: the variant's (graduate agent, paper all)."""
     selector: str = "learned"
     """High level: learned (TL-AC), random or ucb1 (per episode) -- the Figure 11 ablations."""
     ucb_c: float = 1.0
     """UCB1 exploration constant (scaled by the observed return range)."""
     n_envs: int = 1
     """Parallel environments, used only when TLAC builds the environment from a domain name."""
+
+    def __post_init__(self) -> None:
+        if self.variant not in VARIANT_DEFAULTS:
+            raise UnknownNameError("variant", self.variant, list(VARIANT_DEFAULTS))
+        for name, value in VARIANT_DEFAULTS[self.variant].items():
+            if getattr(self, name) is None:
+                setattr(self, name, value)
 
     @classmethod
     def from_settings(cls, settings: dict[str, Any]) -> TLACConfig:
@@ -128,9 +190,16 @@ class TLACConfig:
             if not isinstance(v, int) or isinstance(v, bool) or v <= 0:
                 raise ConfigError(f"TL-AC setting {name} must be a positive integer, got {v!r}")
 
-        for name in ("n_steps", "batch_size", "n_epochs", "n_envs"):
+        for name in (
+            "n_steps",
+            "batch_size",
+            "n_epochs",
+            "n_envs",
+            "imitation_buffer_size",
+            "imitation_batch_size",
+        ):
             positive_int(name)
-        for name in ("learning_rate", "clip_range"):
+        for name in ("learning_rate", "clip_range", "distill_coef"):
             validate_schedule(name, getattr(self, name))
         if self.target_kl is not None:
             validate_schedule("target_kl", self.target_kl)
@@ -138,11 +207,22 @@ class TLACConfig:
             v = getattr(self, name)
             if not 0.0 <= v <= 1.0:
                 raise ConfigError(f"TL-AC setting {name} must be in [0, 1], got {v!r}")
-        for name in ("vf_coef", "max_grad_norm", "ent_coef", "optimizer_eps"):
+        for name in (
+            "vf_coef",
+            "max_grad_norm",
+            "ent_coef",
+            "optimizer_eps",
+            "advice_cost",
+            "solo_budget",
+        ):
             if getattr(self, name) < 0:
                 raise ConfigError(f"TL-AC setting {name} must be >= 0, got {getattr(self, name)!r}")
         if self.optimizer not in ("rmsprop_tf", "adam"):
             raise UnknownNameError("optimizer", self.optimizer, ["rmsprop_tf", "adam"])
+        if self.kl_rows not in ("agent", "all", "high"):
+            raise UnknownNameError("kl_rows", self.kl_rows, ["agent", "all", "high"])
+        if self.obs_encoding not in ENCODINGS:
+            raise UnknownNameError("obs_encoding", self.obs_encoding, list(ENCODINGS))
         if self.low_level_data not in ("all", "agent"):
             raise UnknownNameError("low_level_data", self.low_level_data, ["all", "agent"])
         if self.selector not in ("learned", "random", "ucb1"):
@@ -251,6 +331,8 @@ class TLAC:
         self.n_teachers = len(teacher_names)
         self.n_choices = self.n_teachers + 1  # E = E_0 U {Agent}; the agent is the last index
         self.obs_dim = int(np.prod(obs_space.shape))
+        self.encoder = make_encoder(cfg.obs_encoding, obs_space)
+        net_in = self.obs_dim if self.encoder is None else self.encoder.out_dim
         self.discrete = isinstance(action_space, gym.spaces.Discrete)
         if self.discrete:
             low_out = int(action_space.n)
@@ -264,7 +346,7 @@ class TLAC:
             cfg.ortho_init_low if cfg.ortho_init_critic is None else cfg.ortho_init_critic
         )
         self.net = StackedMLP(
-            self.obs_dim,
+            net_in,
             [list(cfg.net_arch_high), list(cfg.net_arch_low), list(cfg.net_arch_critic)],
             [self.n_choices, low_out, 1],
             ortho_init=[cfg.ortho_init_high, cfg.ortho_init_low, ortho_critic],
@@ -277,6 +359,11 @@ class TLAC:
             self.log_std = nn.Parameter(torch.full(shape, float(cfg.log_std_init)))
             params.append(self.log_std)
         self.params = params
+        self._action_half_width: torch.Tensor | None = None
+        if not self.discrete:
+            half = (action_space.high - action_space.low).astype(np.float64) / 2.0
+            half[~np.isfinite(half) | (half <= 0)] = 1.0  # unbounded boxes: unit scale
+            self._action_half_width = torch.as_tensor(half.reshape(-1), dtype=torch.float32)
         lr0 = make_schedule(cfg.learning_rate, "learning_rate")(1.0)
         if cfg.optimizer == "adam":
             self.optimizer: torch.optim.Optimizer = torch.optim.Adam(
@@ -288,6 +375,7 @@ class TLAC:
             )
         self.lr_schedule = make_schedule(cfg.learning_rate, "learning_rate")
         self.clip_schedule = make_schedule(cfg.clip_range, "clip_range")
+        self.distill_schedule = make_schedule(cfg.distill_coef, "distill_coef")
         self.kl_schedule = (
             None if cfg.target_kl is None else make_schedule(cfg.target_kl, "target_kl")
         )
@@ -302,6 +390,18 @@ class TLAC:
                 self.n_choices, getattr(self, "n_envs", 1), self.seed, cfg.ucb_c
             )
         self.train_high = self.selector.trains_high_level and self.n_choices > 1
+        self.advice_buffer: AdviceBuffer | None = None
+        if self.n_teachers and cfg.distill_coef != 0:
+            self.advice_buffer = AdviceBuffer(
+                cfg.imitation_buffer_size,
+                self.obs_dim,
+                (self.n_teachers,) if self.discrete else (self.n_teachers, low_out),
+                torch.int64 if self.discrete else torch.float32,
+            )
+        self._replay_generator = torch.Generator().manual_seed(self.seed + 1)
+        self.solo: SoloEpisodes | None = None
+        if cfg.solo_budget and self.n_teachers:
+            self.solo = SoloEpisodes(getattr(self, "n_envs", 1), cfg.solo_budget, self.seed)
         self._sde_noise: np.ndarray | None = None
         self._ent_coefs = torch.tensor(
             [  # [low, high]
@@ -317,7 +417,7 @@ class TLAC:
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """Training pass: (high logits, low output (logits or Gaussian mean), value, low-level
         last hidden layer), with autograd."""
-        out, hidden = self.net(obs)
+        out, hidden = self.net(obs if self.encoder is None else self.encoder.torch(obs))
         return (
             out[HIGH, :, : self.n_choices],
             out[LOW, :, : self.net.out_dims[LOW]],
@@ -328,6 +428,8 @@ class TLAC:
     def _act_heads(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Acting pass: the same four heads as :meth:`_heads`, in NumPy, without autograd."""
         x = np.asarray(obs, dtype=np.float32).reshape(-1, self.obs_dim)
+        if self.encoder is not None:
+            x = self.encoder.numpy(x)
         out, hidden = self.net.forward_numpy(x)
         return (
             out[HIGH, :, : self.n_choices],
@@ -355,6 +457,40 @@ class TLAC:
         if self.discrete:
             return torch.log_softmax(low_out, dim=-1).gather(1, actions.view(-1, 1)).squeeze(1)
         return gaussian_log_prob(actions, low_out, self._low_log_std(latent))
+
+    def _advice_on(self, obs: torch.Tensor) -> torch.Tensor:
+        """Every teacher's action in every row of ``obs``: ``(n_teachers, n)`` (discrete) or
+        ``(n_teachers, n, act_dim)`` (Box), each teacher asked once for the whole batch."""
+        raw = obs.numpy().reshape(-1, *self.observation_space.shape)
+        choices = np.zeros(len(raw), dtype=np.int64)
+        out = []
+        for k in range(self.n_teachers):
+            actions = np.zeros(
+                (len(raw), *self.action_space.shape),
+                dtype=np.int64 if self.discrete else np.float32,
+            )
+            choices[:] = k
+            query_teachers(self.teachers, choices, raw, self.action_space, actions)
+            out.append(
+                torch.from_numpy(actions if self.discrete else actions.reshape(len(raw), -1))
+            )
+        return torch.stack(out)
+
+    def _advice_nll(
+        self, low_out: torch.Tensor, latent: torch.Tensor, advice: torch.Tensor
+    ) -> torch.Tensor:
+        """``(n_teachers, B)``: how far pi_low is from each teacher's action in each row. Discrete:
+        ``-log pi_low(a_k|s)``; Box: half the mean squared distance between the low level's mean
+        and the teacher's action, in units of the action box's half-width (a fixed-variance
+        likelihood, so that imitation does not shrink the exploration noise)."""
+        if self.discrete:
+            log_p = torch.log_softmax(low_out, -1)
+            return (
+                -log_p.unsqueeze(0)
+                .expand(len(advice), -1, -1)
+                .gather(2, advice.unsqueeze(2))[..., 0]
+            )
+        return losses.scaled_squared_error(low_out, advice, self._action_half_width)
 
     def _mean_entropies(
         self, high_logits: torch.Tensor, low_out: torch.Tensor, latent: torch.Tensor
@@ -475,6 +611,10 @@ class TLAC:
             obs = np.asarray(self._last_obs, dtype=np.float32).reshape(E, self.obs_dim)
             high_logits, low_out, values, latent = self._act_heads(obs)
             choices = self.selector.select(high_logits, self._episode_starts)  # line 14
+            if self.solo is not None:  # graduate variant: some episodes are the student's alone
+                solo = self.solo.start(self._episode_starts)
+                choices = np.where(solo, self.n_teachers, choices)
+                ro.solo[t] = solo
             actions = self._sample_low(low_out, latent)  # line 16 (kept where the agent acts)
             actions = self._apply_teachers(choices, self._last_obs, actions)  # line 18
 
@@ -488,6 +628,8 @@ class TLAC:
                     # time-limit truncation is not termination: bootstrap from V(final obs)
                     rewards[i] += cfg.gamma * float(self._act_heads(final)[2][0])
                 self.selector.episode_end(int(i), float(self._episode_returns[i]))
+                if self.solo is not None:
+                    self.solo.end(int(i), float(self._episode_returns[i]))
                 self._episode_returns[i] = 0.0
 
             ro.obs[t] = obs  # line 20: the transition and both levels' log-probabilities
@@ -528,11 +670,25 @@ class TLAC:
         # pi_low moved (on such rows the KL estimate explodes and would stop every update
         # after one step). The high level chose on every row.
         agent_rows = (data["choices"] == self.n_teachers).float()
-        kl_weights = torch.stack([agent_rows, torch.ones(n)])[: old_log_probs.shape[0]]
+        high_rows = 1.0 - data["solo"]  # in a solo episode the high level chose nothing
+        kl_rows = {"agent": agent_rows, "all": torch.ones(n), "high": torch.zeros(n)}
+        kl_weights = torch.stack([kl_rows[cfg.kl_rows], high_rows])[: old_log_probs.shape[0]]
         weights = None
         if cfg.low_level_data == "agent":  # the low level learns only where the agent acted
             weights = kl_weights
+        elif self.solo is not None:
+            weights = torch.stack([torch.ones(n), high_rows])[: old_log_probs.shape[0]]
+        # graduation (docs/graduation.md): what every teacher advises in every collected state,
+        # imitated by the low level in proportion to the high level's trust in that teacher
+        distill = self.distill_schedule(progress_remaining)
+        advice = None
+        if self.advice_buffer is not None and distill > 0:
+            advice = self._advice_on(data["obs"])
+            self.advice_buffer.add(data["obs"], advice)
+        # the advice cost: the high level pays for every step a teacher acts (graduate variant)
+        high_adv_shift = cfg.advice_cost * (1.0 - agent_rows) if cfg.advice_cost else None
         stats: list[torch.Tensor] = []
+        imitation_stats: list[torch.Tensor] = []
         stopped_early = False
         for _epoch in range(cfg.n_epochs):
             perm = torch.randperm(n, generator=self.generator)
@@ -541,7 +697,24 @@ class TLAC:
                 adv = data["advantages"][idx]
                 if cfg.normalize_advantage:
                     adv = losses.normalize(adv)
-                high_logits, low_out, values, latent = self._heads(data["obs"][idx])
+                if high_adv_shift is not None and self.train_high:
+                    adv = torch.stack([adv, adv - high_adv_shift[idx]])  # per level: (2, B)
+                obs = data["obs"][idx]
+                if advice is not None:  # one forward pass for the rollout and the replay rows
+                    rep_obs, rep_advice = self.advice_buffer.sample(
+                        cfg.imitation_batch_size, self._replay_generator
+                    )
+                    obs = torch.cat([obs, rep_obs])
+                high_logits, low_out, values, latent = self._heads(obs)
+                if advice is not None:
+                    b = len(idx)
+                    rep_high, rep_low, rep_latent = high_logits[b:], low_out[b:], latent[b:]
+                    high_logits, low_out, values, latent = (
+                        high_logits[:b],
+                        low_out[:b],
+                        values[:b],
+                        latent[:b],
+                    )
                 # low level, Eq. 3: log pi_low(a|s) A(s, a) on the EXECUTED actions
                 lp_low = self._low_log_prob(low_out, latent, data["actions"][idx])
                 if self.train_high:
@@ -563,6 +736,14 @@ class TLAC:
                 # the one shared critic (Eq. 5)
                 vf_loss = losses.value_loss(values, data["returns"][idx])
                 loss = policy_losses.sum() + cfg.vf_coef * vf_loss
+                if advice is not None:
+                    # DAgger: replayed states, each teacher weighted by the high level's trust
+                    trust = torch.softmax(rep_high.detach()[:, : self.n_teachers], -1)
+                    imitation = losses.imitation_loss(
+                        self._advice_nll(rep_low, rep_latent, rep_advice), trust
+                    )
+                    loss = loss + distill * imitation
+                    imitation_stats.append(imitation.detach())
                 if self._use_entropy:  # skipped when both coefficients are 0 (Table 5)
                     entropies = self._mean_entropies(high_logits, low_out, latent)
                     loss = loss - (self._ent_coefs[: len(entropies)] * entropies).sum()
@@ -587,6 +768,12 @@ class TLAC:
                 levels, self._mean_entropies(high_logits, low_out, latent).tolist(), strict=True
             ):
                 out[f"train/entropy_{lv}"] = h
+        if self.solo is not None:
+            out["train/solo_probability"] = self.solo.probability
+            out["train/competence"] = self.solo.competence
+        if imitation_stats:
+            out["train/imitation_loss"] = float(torch.stack(imitation_stats).mean())
+            out["train/distill_coef"] = distill
         out.update(
             {
                 "train/learning_rate": lr,

@@ -7,8 +7,8 @@ Observation
     The whole grid, fully observed (``minigrid.wrappers.FullyObsWrapper``): every cell is
     MiniGrid's 3-tuple ``(object, colour, state)``; the agent's cell holds
     ``(agent=10, red=0, direction)``. The ``(width, height, 3)`` array, indexed
-    ``[x, y, channel]``, is flattened in C order to 147 ``float32`` values (raw indices, not
-    normalised). The paper: "the state is a 3-tuple vector". Teachers and the agent see the
+    ``[x, y, channel]``, is flattened in C order to 147 ``uint8`` values (raw indices, not
+    normalised; integer-typed, since they are categories). The paper: "the state is a 3-tuple vector". Teachers and the agent see the
     same full state, so a scripted teacher and the region labels can be read off it.
 Actions
     6 discrete actions, as the paper says: MiniGrid's left, right, forward, pickup, drop and
@@ -68,7 +68,7 @@ DOOR_OPEN, DOOR_CLOSED, DOOR_LOCKED = (STATE_TO_IDX[s] for s in ("open", "closed
 # Largest value each channel can take: object index, colour index, state (door state or the
 # agent's direction, both <= 3).
 _CHANNEL_HIGH = np.array(
-    [max(OBJECT_TO_IDX.values()), max(COLOR_TO_IDX.values()), 3], dtype=np.float32
+    [max(OBJECT_TO_IDX.values()), max(COLOR_TO_IDX.values()), 3], dtype=np.uint8
 )
 
 
@@ -76,7 +76,8 @@ class FlatFullGrid(gym.ObservationWrapper):
     """Keep only the fully observed grid of a :class:`FullyObsWrapper` env and flatten it.
 
     The output is ``grid[x, y, c]`` flattened in C order (index ``(x * height + y) * 3 + c``),
-    as ``float32`` so that it can feed a network without a cast.
+    as ``uint8``: the values are category indices, and an integer observation space tells a
+    learner so (TL-AC's graduate variant one-hot encodes such spaces; tlac.algorithms.encoding).
     """
 
     def __init__(self, env: gym.Env):
@@ -84,11 +85,11 @@ class FlatFullGrid(gym.ObservationWrapper):
         width, height = env.unwrapped.width, env.unwrapped.height
         high = np.tile(_CHANNEL_HIGH, width * height)
         self.observation_space = gym.spaces.Box(
-            low=np.zeros_like(high), high=high, dtype=np.float32
+            low=np.zeros_like(high), high=high, dtype=np.uint8
         )
 
     def observation(self, observation: dict[str, Any]) -> np.ndarray:
-        return np.asarray(observation["image"], dtype=np.float32).reshape(-1)
+        return np.asarray(observation["image"], dtype=np.uint8).reshape(-1)
 
 
 class FirstActions(gym.ActionWrapper):

@@ -1,0 +1,144 @@
+"""Graduation: how TL-AC's graduate variant hands control to the student (docs/graduation.md).
+
+The paper's TL-AC (Algorithm 1) lets the high level mix teachers and agent step by step, so the
+student never acts for a whole episode during training, and at deployment it meets states it
+has never seen (covariate shift; Ross et al. 2011). The graduate variant plays some episodes
+with the student ALONE ("solo" episodes; JSRL's hand-over, Uchendu et al. 2023, taken to the
+whole episode), and the imitation term of the update labels those states with the advice of
+the teachers the high level trusts there (DAgger-style relabelling).
+
+How many episodes are solo is set by the student's measured competence: a solo episode costs
+the training return ``R_assisted - R_solo`` in expectation, so playing a share
+
+    p = min(1, budget / (1 - competence)),   competence = (R_solo - R_floor) / (R_assisted - R_floor)
+
+of episodes alone costs at most ``budget * (R_assisted - R_floor)``: little while the student is
+weak, and control passes to it entirely once it is as good as its teachers.
+
+>>> solo_probability(0.0, 0.05), solo_probability(0.8, 0.05), solo_probability(0.99, 0.05)
+(0.05, 0.25, 1.0)
+>>> competence(solo=0.5, assisted=0.9, floor=0.1)
+0.5
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+import torch
+
+
+def solo_probability(competence: float, budget: float) -> float:
+    """The share of episodes the student plays alone: ``min(1, budget / (1 - competence))``,
+    so that ``p * (1 - competence)`` (the expected loss of training return, in units of the
+    teachers' advantage over the untrained student) never exceeds ``budget``."""
+    if budget <= 0:
+        return 0.0
+    if competence >= 1.0:
+        return 1.0
+    return float(min(1.0, budget / (1.0 - competence)))
+
+
+def competence(solo: float, assisted: float, floor: float) -> float:
+    """How close the student alone is to the assisted behaviour, in [0, 1]:
+    ``(solo - floor) / (assisted - floor)``, clipped; 1 when the assistance is no better than
+    the floor (the teachers do not help, so the student may as well act alone)."""
+    if assisted <= floor:
+        return 1.0
+    return float(np.clip((solo - floor) / (assisted - floor), 0.0, 1.0))
+
+
+class SoloEpisodes:
+    """Decides, at every episode start, whether the student plays that episode alone.
+
+    ``window`` recent returns of solo and of assisted episodes are compared; the floor is the
+    lowest mean of ``window`` solo returns seen so far (the untrained student's level). Until
+    ``min_episodes`` solo episodes have ended, competence counts as 0.
+    """
+
+    def __init__(
+        self, n_envs: int, budget: float, seed: int, window: int = 20, min_episodes: int = 5
+    ):
+        self.budget = float(budget)
+        self.active = np.zeros(n_envs, dtype=bool)
+        self.rng = np.random.default_rng([seed, 0x501])  # its own stream: acting is untouched
+        self.solo_returns: deque[float] = deque(maxlen=window)
+        self.assisted_returns: deque[float] = deque(maxlen=window)
+        self.min_episodes = min_episodes
+        self.floor = np.inf
+
+    @property
+    def competence(self) -> float:
+        if len(self.solo_returns) < self.min_episodes or not self.assisted_returns:
+            return 0.0
+        return competence(
+            float(np.mean(self.solo_returns)), float(np.mean(self.assisted_returns)), self.floor
+        )
+
+    @property
+    def probability(self) -> float:
+        return solo_probability(self.competence, self.budget)
+
+    def start(self, episode_starts: np.ndarray) -> np.ndarray:
+        """Draw solo or assisted for every environment whose episode starts now; returns the
+        per-environment solo flags."""
+        starting = np.flatnonzero(episode_starts)
+        if len(starting):
+            self.active[starting] = self.rng.random(len(starting)) < self.probability
+        return self.active
+
+    def end(self, env_index: int, episode_return: float) -> None:
+        if self.active[env_index]:
+            self.solo_returns.append(float(episode_return))
+            if len(self.solo_returns) >= self.min_episodes:
+                self.floor = min(self.floor, float(np.mean(self.solo_returns)))
+        else:
+            self.assisted_returns.append(float(episode_return))
+
+
+class AdviceBuffer:
+    """The aggregated data set of DAgger (Ross et al. 2011): every state the student met in
+    training, with what each teacher advises there, in a ring of ``capacity`` rows. The
+    imitation term samples its minibatches here rather than from the latest rollout alone:
+    16 consecutive, strongly correlated states repeated for 5 epochs are a poor data set to
+    fit a policy to (docs/graduation.md measures the difference).
+
+    >>> buf = AdviceBuffer(capacity=3, obs_dim=2, advice_shape=(2,), advice_dtype=torch.int64)
+    >>> buf.add(torch.ones(2, 2), torch.tensor([[0, 1], [4, 5]]))   # 2 teachers, 2 states
+    >>> buf.add(torch.ones(2, 2), torch.tensor([[2, 3], [6, 7]]))   # the 4th state overwrites the 1st
+    >>> len(buf), buf.advice[:, 0].tolist(), buf.advice[:, 1].tolist()
+    (3, [3, 1, 2], [7, 5, 6])
+    """
+
+    def __init__(
+        self,
+        capacity: int,
+        obs_dim: int,
+        advice_shape: tuple[int, ...],
+        advice_dtype: torch.dtype,
+    ):
+        self.obs = torch.zeros(capacity, obs_dim)
+        self.advice = torch.zeros(capacity, *advice_shape, dtype=advice_dtype)
+        self.capacity = capacity
+        self.size = 0
+        self.next = 0
+
+    def __len__(self) -> int:
+        return self.size
+
+    def add(self, obs: torch.Tensor, advice: torch.Tensor) -> None:
+        """``obs`` ``(n, obs_dim)``; ``advice`` ``(n_teachers, n, ...)`` as the update has it."""
+        advice = advice.transpose(0, 1)[-self.capacity :]
+        obs = obs[-self.capacity :]
+        slots = (self.next + torch.arange(len(obs))) % self.capacity
+        self.obs[slots] = obs
+        self.advice[slots] = advice
+        self.next = int(slots[-1] + 1) % self.capacity
+        self.size = min(self.size + len(obs), self.capacity)
+
+    def sample(self, n: int, generator: torch.Generator) -> tuple[torch.Tensor, torch.Tensor]:
+        """``n`` rows drawn uniformly with replacement: ``(obs (n, obs_dim), advice
+        (n_teachers, n, ...))``."""
+        idx = torch.randint(self.size, (n,), generator=generator)
+        return self.obs[idx], self.advice[idx].transpose(0, 1)
