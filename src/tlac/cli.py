@@ -74,7 +74,17 @@ def _cmd_train(args: argparse.Namespace) -> int:
         f"tlac train: {spec.algo} on {spec.env}, teachers [{', '.join(names) or 'none'}], "
         f"{spec.steps} steps, seed {spec.seed} -> {out}"
     )
-    result = train_run(spec, out, progress_bar=not args.no_progress)
+
+    def report_eval(timestep: int, student: float, train_return: float | None) -> None:
+        from tqdm.auto import tqdm
+
+        train = "n/a" if train_return is None else f"{train_return:.3f}"
+        tqdm.write(
+            f"step {timestep}: student alone {student:.3f} (greedy, {spec.eval_episodes} "
+            f"episodes) | training return {train} (teachers included)"
+        )
+
+    result = train_run(spec, out, progress_bar=not args.no_progress, on_eval=report_eval)
     print(
         f"trained {result['steps']} steps in {result['wall_time_s']:.0f} s "
         f"({result['steps_per_s']:.0f} steps/s), {result['episodes']} episodes"
@@ -84,7 +94,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
         print(f"training return, last episodes (teachers included): {train_return:.3f}")
     if result["final_eval_mean"] is not None:
         print(
-            f"student alone, {spec.eval_episodes} episodes: "
+            f"student alone (no teachers, greedy), {spec.eval_episodes} episodes: "
             f"{result['final_eval_mean']:.3f} +- {result['final_eval_std']:.3f}"
         )
     print(f"run folder: {out} (episodes.csv, teacher_usage.csv, eval.csv, config.yaml, model)")

@@ -147,9 +147,17 @@ def _clear_run_folder(out: Path) -> None:
             p.unlink()
 
 
-def train_run(spec: RunSpec, out_dir: str | Path, progress_bar: bool = False) -> dict[str, Any]:
+def train_run(
+    spec: RunSpec,
+    out_dir: str | Path,
+    progress_bar: bool = False,
+    on_eval: Any = None,
+) -> dict[str, Any]:
     """Train one run described by ``spec`` and write its run folder; returns ``result.json``'s
-    content. An unfinished folder at ``out_dir`` (no ``result.json``) is redone from scratch."""
+    content. An unfinished folder at ``out_dir`` (no ``result.json``) is redone from scratch.
+    ``on_eval(timestep, student_alone_mean, training_return)`` is called after every evaluation
+    of the student alone (``training_return``: mean of the recent training episodes, teachers
+    included, or ``None`` before the first episode ends)."""
     domain = spec.validate()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -196,6 +204,9 @@ def train_run(spec: RunSpec, out_dir: str | Path, progress_bar: bool = False) ->
         eval_rows.append(row)
         with eval_file.open("a") as f:
             f.write(",".join(str(v) for v in row) + "\n")
+        if on_eval is not None:
+            train_return = venv.mean_recent_return() if venv.episode_returns else None
+            on_eval(timestep, row[1], train_return)
 
     next_eval = spec.eval_every if spec.eval_every else None
 

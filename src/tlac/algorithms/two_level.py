@@ -148,7 +148,8 @@ class TLACConfig:
     """Which rows give the low level's approximate KL for the target-KL stop: agent (where the
     agent acted: pi_low's own samples), all (every row, as a PPO built on SB3 computes it) or
     high (none: only the high level's KL stops the epochs, since the imitation term moves
-    pi_low on purpose). None: the variant's (graduate high, paper agent)."""
+    pi_low on purpose; without an imitation term it acts as agent). None: the variant's
+    (graduate high, paper agent)."""
     obs_encoding: str | None = None
     """raw, onehot (each integer observation dimension as indicators) or auto (onehot for an
     integer-dtype Box with small ranges, else raw; tlac.algorithms.encoding). None: the
@@ -235,6 +236,15 @@ class TLACConfig:
             )
 
 
+def domain_preset(name: str) -> dict[str, Any]:
+    """The TL-AC settings of a named domain's preset (paper Tables 5, 8, 10)."""
+    from tlac.envs import get_domain
+    from tlac.presets import load_preset
+
+    domain = get_domain(name)
+    return load_preset(domain.presets["tlac"], "tlac") if "tlac" in domain.presets else {}
+
+
 def _as_vec_env(env: Any, n_envs: int, seed: int) -> tuple[VecEnv, Any]:
     """Accept a domain name, a Gymnasium env or an SB3 VecEnv; returns (vec_env, domain|None)."""
     if isinstance(env, str):
@@ -287,6 +297,8 @@ class TLAC:
         recorder: Recorder | None = None,
         **settings: Any,
     ):
+        if isinstance(env, str):  # a named domain: its preset, as `tlac train` uses it
+            settings = {**domain_preset(env), **settings}
         self.config = TLACConfig.from_settings(settings)
         self.seed = seed
         torch.manual_seed(seed)
@@ -671,8 +683,9 @@ class TLAC:
         # after one step). The high level chose on every row.
         agent_rows = (data["choices"] == self.n_teachers).float()
         high_rows = 1.0 - data["solo"]  # in a solo episode the high level chose nothing
-        kl_rows = {"agent": agent_rows, "all": torch.ones(n), "high": torch.zeros(n)}
-        kl_weights = torch.stack([kl_rows[cfg.kl_rows], high_rows])[: old_log_probs.shape[0]]
+        rule = cfg.kl_rows if cfg.kl_rows != "high" or self.advice_buffer else "agent"
+        low_kl_rows = {"agent": agent_rows, "all": torch.ones(n), "high": torch.zeros(n)}[rule]
+        kl_weights = torch.stack([low_kl_rows, high_rows])[: old_log_probs.shape[0]]
         weights = None
         if cfg.low_level_data == "agent":  # the low level learns only where the agent acted
             weights = kl_weights
@@ -851,7 +864,7 @@ class TLAC:
 
     def _bar_text(self, episodes: EpisodeRecorder | None, usage: np.ndarray) -> str:
         ret = episodes.mean_recent_return() if episodes is not None else float("nan")
-        parts = [f"return {ret:.3g}"]
+        parts = [f"training return {ret:.3g}"]  # teachers included; the student alone: eval
         if self.n_teachers and usage.sum() > 0:
             frac = usage / usage.sum()
             names = [*self.teacher_names, "agent"]

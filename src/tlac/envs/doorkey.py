@@ -84,9 +84,7 @@ class FlatFullGrid(gym.ObservationWrapper):
         super().__init__(env)
         width, height = env.unwrapped.width, env.unwrapped.height
         high = np.tile(_CHANNEL_HIGH, width * height)
-        self.observation_space = gym.spaces.Box(
-            low=np.zeros_like(high), high=high, dtype=np.uint8
-        )
+        self.observation_space = gym.spaces.Box(low=np.zeros_like(high), high=high, dtype=np.uint8)
 
     def observation(self, observation: dict[str, Any]) -> np.ndarray:
         return np.asarray(observation["image"], dtype=np.uint8).reshape(-1)
