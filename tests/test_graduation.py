@@ -175,9 +175,10 @@ def test_graduate_imitation_moves_the_student_towards_its_teacher():
 
 @pytest.mark.slow
 def test_doorkey_student_alone_succeeds():
-    """The default TL-AC with one optimal teacher: after 60k steps the student ALONE (greedy,
-    no teacher) solves DoorKey. The paper variant's student scores 0 here (docs/graduation.md)."""
-    model = TLAC("doorkey", teachers=["optimal"], seed=0)
-    model.learn(60_000, progress_bar=False)
+    """The default TL-AC, 1 optimal + 2 random teachers, 1e5 steps (the demo): the student
+    ALONE (greedy, no teacher) solves DoorKey. The paper variant's student scores 0.000 here
+    at every evaluation (docs/graduation.md)."""
+    model = TLAC("doorkey", teachers=["optimal", "random", "random"], seed=0)
+    model.learn(100_000, progress_bar=False)
     returns = evaluate_student(model, get_domain("doorkey"), 50, seed=10_000)
-    assert returns.mean() >= 0.8
+    assert returns.mean() >= 0.85, returns

@@ -192,7 +192,9 @@ def test_learns_to_trust_the_optimal_teacher_on_doorkey(tmp_path):
         region_of,
         log_interval=2000,
     )
-    model = TLAC("doorkey", teachers=["optimal", "random", "random"], seed=0, recorder=rec)
+    model = TLAC(
+        "doorkey", teachers=["optimal", "random", "random"], seed=0, recorder=rec, variant="paper"
+    )
     model.learn(10_000, progress_bar=False)
     rec.close(model.num_timesteps)
     returns = list(model.env.episode_returns)

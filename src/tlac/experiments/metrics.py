@@ -232,3 +232,17 @@ def reuse_frequency(usage: pd.DataFrame, bin_width: float) -> pd.DataFrame:
     return grouped[["step", "region", "choice", "count", "fraction"]].sort_values(
         ["region", "step", "choice"], ignore_index=True
     )
+
+
+def first_step_reaching(timesteps: ArrayLike, values: ArrayLike, target: float) -> float:
+    """The first timestep whose value is >= ``target`` (NaN if none): e.g. the steps until the
+    student alone first matches the best single teacher's return (issue 8).
+
+    >>> first_step_reaching([0, 10, 20, 30], [0.1, 0.5, 0.95, 0.9], 0.9)
+    20.0
+    >>> import math; math.isnan(first_step_reaching([0, 10], [0.1, 0.2], 0.9))
+    True
+    """
+    t, v = np.asarray(timesteps, dtype=float), np.asarray(values, dtype=float)
+    hit = np.flatnonzero(v >= target)
+    return float(t[hit[0]]) if len(hit) else float("nan")

@@ -301,6 +301,8 @@ class _Report:
             "algorithm",
             "final training return",
             "student alone (final)",
+            "gap: training - student",
+            "student matches best teacher at",
             "mean return over training (AUC / steps)",
         ]
         if c.metrics.threshold is not None:
@@ -314,7 +316,7 @@ class _Report:
             )
             if len(part) == 0:
                 rows.append(
-                    [_label(c, s), f"`{a}`", "no finished run", "", ""]
+                    [_label(c, s), f"`{a}`", "no finished run", "", "", "", ""]
                     + ([""] if c.metrics.threshold is not None else [])
                 )
                 continue
@@ -323,6 +325,8 @@ class _Report:
                 f"`{a}`",
                 fmt_mean_std(part.final_return),
                 fmt_mean_std(part.student_final_return),
+                fmt_mean_std(part.final_return - part.student_final_return),
+                self._steps_to_match(s, a),
                 fmt_mean_std(part.auc_mean_return),
             ]
             if c.metrics.threshold is not None:
@@ -333,9 +337,23 @@ class _Report:
         self.sections.append(
             "## Performance\n\nMean ± standard deviation over seeds. Final training return: the last "
             f"{final_window(c):,} steps. Student alone: the last evaluation without teachers. "
+            "Gap: final training return minus the student alone, per seed. Student matches best "
+            "teacher: the first evaluation where the seed-mean student alone reaches the best "
+            "single teacher's measured return. "
             "Time to threshold: first grid step where the seed-mean training curve reaches it.\n\n"
             + _markdown_table(header, rows)
         )
+
+    def _steps_to_match(self, set_key: str, algo: str) -> str:
+        """Steps until the student alone (seed-mean evaluation curve) first reaches the best
+        single teacher's measured return; 'never' within the budget, '' without data."""
+        refs = self._references(set_key)
+        runs = [d for d in self.finished(set_key, algo) if len(d.evals)]
+        if not refs or not runs:
+            return ""
+        merged = pd.concat([d.evals for d in runs]).groupby("timestep")["mean_return"].mean()
+        step = M.first_step_reaching(merged.index, merged.to_numpy(), max(refs.values()))
+        return "never" if math.isnan(step) else f"{step:,.0f}"
 
     def iqm_section(self) -> None:
         if len(self.summary) == 0:
