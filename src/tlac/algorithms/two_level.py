@@ -124,9 +124,10 @@ class TLACConfig:
     net_arch_critic: list[int] = field(default_factory=lambda: [64, 64])
     variant: str = "graduate"
     """graduate (the default): the paper's TL-AC plus what makes the student act well ALONE
-    (imitation of the teachers the high level trusts, an advice cost, on-policy low-level
-    gradients; docs/graduation.md). paper: Algorithm 1 exactly, for reproductions. The
-    variant only sets the defaults of distill_coef, advice_cost and low_level_data."""
+    (imitation of the teachers the high level trusts, solo episodes, on-policy low-level
+    gradients, one-hot integer observations; docs/graduation.md). paper: Algorithm 1 exactly,
+    for reproductions. The variant only sets the settings listed in VARIANT_DEFAULTS that are
+    left at None; any of them can still be set by hand."""
     distill_coef: Schedule | None = None
     """Weight of the low level's imitation of the teachers, each weighted per state by the high
     level's probability of choosing it (docs/graduation.md); number or {linear: [start, end]}.
@@ -134,7 +135,8 @@ class TLACConfig:
     advice_cost: float | None = None
     """Subtracted from the high level's (normalised) advantage wherever a teacher acted, so that
     control passes to the agent once its actions are about as good. None: the variant's
-    (graduate 0.1, paper 0)."""
+    (0 in both: measured, it cost training return without helping the student alone,
+    docs/graduation.md)."""
     imitation_buffer_size: int = 50_000
     """States (with every teacher's advice) kept for the imitation term (DAgger's data set)."""
     imitation_batch_size: int = 64

@@ -1,0 +1,307 @@
+"""The student alone on users' own environments: TL-AC with scripted teachers vs SB3 PPO alone.
+
+What a new user does: take a Gymnasium environment that is NOT one of tlac's domains, write a
+controller or two as plain functions, add a random teacher, and call ``TLAC(env, teachers=...)``
+with its defaults. What they deploy is the student alone (``model.predict``). This script
+trains exactly that, and SB3 PPO with its defaults and no teachers on the same number of steps,
+and scores both ALONE (greedy, fresh seeds). Per environment it reports the normalised score
+(student - random policy) / (best teacher - random policy).
+
+    .venv/bin/python benchmarks/user_envs.py --steps 100000 --seeds 0 1 2 3 4 --workers 1
+
+Every finished run is a JSON file under ``--out``/runs (rerunning skips it), and the table is
+written to ``--out``/report.md. docs/graduation.md quotes it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+import os
+import sys
+import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+EVAL_EPISODES = 30
+EVAL_SEED = 10_000
+"""Evaluation episodes use seeds EVAL_SEED, EVAL_SEED + 1, ... (never seen in training)."""
+
+
+# ------------------------------------------------------------------ the users' teachers
+def mountain_car_energy(obs: np.ndarray) -> int:
+    """Pump energy: push in the direction of motion (0 = left, 2 = right)."""
+    return 2 if obs[1] >= 0 else 0
+
+
+def acrobot_swing(obs: np.ndarray) -> int:
+    """Torque with the second joint's angular velocity (0 = -1, 2 = +1): it pumps energy into
+    the swing until the tip crosses the line."""
+    return 2 if obs[5] > 0 else 0
+
+
+PENDULUM_TOP_ENERGY = 15.0
+"""Pendulum-v1: theta'' = 3g/(2l) sin(theta) + 3u/(ml^2) with g=10, m=l=1, so
+E = theta'^2 / 2 + 15 cos(theta) is conserved without torque and equals 15 at rest upright."""
+
+
+def pendulum_swing_up(obs: np.ndarray) -> np.ndarray:
+    """Energy-based swing-up (dE/dt = 3 u theta', so u = 2 sign(theta' (E* - E)) adds energy
+    until E = E*), then a PD controller near the top."""
+    cos, sin, speed = (float(v) for v in obs)
+    if cos > 0.85:
+        torque = -(10.0 * np.arctan2(sin, cos) + 2.0 * speed)
+    else:
+        energy = 0.5 * speed**2 + PENDULUM_TOP_ENERGY * cos
+        torque = 2.0 * np.sign(speed * (PENDULUM_TOP_ENERGY - energy)) if speed else 2.0
+    return np.array([np.clip(torque, -2.0, 2.0)], dtype=np.float32)
+
+
+def make_noisy_pendulum(seed: int, std: float = 1.0) -> Callable[[np.ndarray], np.ndarray]:
+    """The swing-up controller with N(0, std^2) added to its torque (clipped to [-2, 2])."""
+    rng = np.random.default_rng(seed)
+
+    def pendulum_noisy(obs: np.ndarray) -> np.ndarray:
+        noisy = pendulum_swing_up(obs) + rng.normal(0.0, std, size=1)
+        return np.clip(noisy, -2.0, 2.0).astype(np.float32)
+
+    return pendulum_noisy
+
+
+def cartpole_pd(obs: np.ndarray) -> int:
+    """Push towards where the pole falls (a PD law on angle and angular velocity, with a little
+    position and velocity feedback to stay on the track)."""
+    x, x_dot, angle, angle_dot = (float(v) for v in obs)
+    return 1 if angle + 0.5 * angle_dot + 0.05 * x + 0.1 * x_dot > 0 else 0
+
+
+def random_teacher(action_space: gym.Space, seed: int) -> Callable[[np.ndarray], Any]:
+    """Uniformly random actions from (a seeded copy of) the environment's action space."""
+    space = copy.deepcopy(action_space)
+    space.seed(seed)
+
+    def random(obs: np.ndarray) -> Any:
+        return space.sample()
+
+    return random
+
+
+# ------------------------------------------------------------------ the suite
+TeacherFactory = Callable[[int, gym.Space], list[Callable[[np.ndarray], Any]]]
+
+
+def _teachers_mountain_car(seed: int, space: gym.Space) -> list:
+    return [mountain_car_energy, random_teacher(space, seed)]
+
+
+def _teachers_acrobot(seed: int, space: gym.Space) -> list:
+    return [acrobot_swing, random_teacher(space, seed)]
+
+
+def _teachers_pendulum(seed: int, space: gym.Space) -> list:
+    return [pendulum_swing_up, make_noisy_pendulum(seed), random_teacher(space, seed + 1)]
+
+
+def _teachers_cartpole(seed: int, space: gym.Space) -> list:
+    return [cartpole_pd, random_teacher(space, seed)]
+
+
+SUITE: dict[str, TeacherFactory] = {
+    "MountainCar-v0": _teachers_mountain_car,
+    "Acrobot-v1": _teachers_acrobot,
+    "Pendulum-v1": _teachers_pendulum,
+    "CartPole-v1": _teachers_cartpole,
+}
+"""Environment id -> its teachers (a user's plain functions from one observation to one
+action), built for a seed and the environment's action space."""
+
+
+def evaluate(act_batch: Callable[[np.ndarray], Any], env_id: str, episodes: int) -> np.ndarray:
+    """Returns of ``act_batch`` over ``episodes`` fresh episodes seeded EVAL_SEED, ..."""
+    from tlac.evaluation import evaluate_policy
+
+    maker = SimpleNamespace(make_env=lambda: gym.make(env_id))
+    return evaluate_policy(act_batch, maker, episodes, EVAL_SEED)
+
+
+def one_by_one(fn: Callable[[np.ndarray], Any]) -> Callable[[np.ndarray], list]:
+    return lambda batch: [fn(obs) for obs in batch]
+
+
+def reference_returns(env_id: str, episodes: int) -> dict[str, Any]:
+    """Each teacher's own return and the random policy's (the normalisation's two ends)."""
+    space = gym.make(env_id).action_space
+    teachers = SUITE[env_id](0, space)
+    out: dict[str, Any] = {"env": env_id, "teachers": {}}
+    for teacher in teachers:
+        returns = evaluate(one_by_one(teacher), env_id, episodes)
+        out["teachers"][teacher.__name__] = float(returns.mean())
+    rand = random_teacher(space, 12345)
+    out["random_policy"] = float(evaluate(one_by_one(rand), env_id, episodes).mean())
+    return out
+
+
+def train_one(
+    env_id: str, learner: str, seed: int, steps: int, episodes: int, settings: dict
+) -> dict:
+    """Train ``learner`` (tlac: TL-AC's defaults with the suite's teachers; ppo: SB3 PPO's
+    defaults alone) for ``steps`` steps and score its policy alone, greedy."""
+    import torch
+
+    torch.set_num_threads(1)
+    env = gym.make(env_id)
+    start = time.perf_counter()
+    result: dict[str, Any] = {"env": env_id, "learner": learner, "seed": seed, "steps": steps}
+    if learner == "tlac":
+        from tlac import TLAC
+        from tlac.recording import find_episode_recorder
+
+        model = TLAC(env, teachers=SUITE[env_id](seed, env.action_space), seed=seed, **settings)
+        model.learn(steps, progress_bar=False)
+        recent = find_episode_recorder(model.env).episode_returns
+        result["training_return"] = float(np.mean(recent)) if recent else float("nan")
+        result["settings"] = settings
+    else:
+        from stable_baselines3 import PPO
+
+        model = PPO("MlpPolicy", env, seed=seed, device="cpu")
+        model.learn(steps)
+    returns = evaluate(lambda batch: model.predict(batch, deterministic=True)[0], env_id, episodes)
+    result["student_alone"] = float(returns.mean())
+    result["student_alone_std"] = float(returns.std())
+    result["seconds"] = round(time.perf_counter() - start, 1)
+    return result
+
+
+# ------------------------------------------------------------------ the report
+def normalised(score: float, random_policy: float, best_teacher: float) -> float:
+    """(score - random) / (best teacher - random): 0 = random policy, 1 = best teacher."""
+    return (score - random_policy) / (best_teacher - random_policy)
+
+
+def _mean_std(values: list[float]) -> str:
+    return f"{np.mean(values):.1f} +- {np.std(values):.1f}" if values else "-"
+
+
+def report(out: Path, envs: list[str]) -> str:
+    """The table: per environment, teachers, random, PPO alone, TL-AC's training return and
+    student alone (mean +- std over seeds), normalised score and the two targets."""
+    lines = [
+        "| environment | steps | seeds | random policy | teachers (own return) | SB3 PPO alone "
+        "| TL-AC training return | TL-AC student alone | normalised | >= 0.8 | >= PPO |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for env_id in envs:
+        ref_path = out / "reference" / f"{env_id}.json"
+        if not ref_path.exists():
+            continue
+        ref = json.loads(ref_path.read_text())
+        runs = [json.loads(p.read_text()) for p in sorted((out / "runs").glob(f"{env_id}__*.json"))]
+        tlac = [r for r in runs if r["learner"] == "tlac"]
+        ppo = [r for r in runs if r["learner"] == "ppo"]
+        best = max(ref["teachers"].values())
+        student = [r["student_alone"] for r in tlac]
+        ppo_alone = [r["student_alone"] for r in ppo]
+        norm = (
+            normalised(float(np.mean(student)), ref["random_policy"], best)
+            if student
+            else float("nan")
+        )
+        beats = bool(student and ppo_alone and np.mean(student) >= np.mean(ppo_alone))
+        teachers = ", ".join(f"{k} {v:.1f}" for k, v in ref["teachers"].items())
+        steps = sorted({r["steps"] for r in runs})
+        lines.append(
+            f"| {env_id} | {'/'.join(str(s) for s in steps)} | {len(tlac)}+{len(ppo)} "
+            f"| {ref['random_policy']:.1f} | {teachers} | {_mean_std(ppo_alone)} "
+            f"| {_mean_std([r['training_return'] for r in tlac])} | {_mean_std(student)} "
+            f"| {norm:.2f} | {'yes' if norm >= 0.8 else 'NO'} | {'yes' if beats else 'NO'} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def parse_settings(pairs: list[str]) -> dict[str, Any]:
+    """``key=value`` pairs (values parsed as JSON where they can be) -> TL-AC settings."""
+    settings: dict[str, Any] = {}
+    for pair in pairs:
+        key, sep, value = pair.partition("=")
+        if not sep:
+            raise SystemExit(f"error: --tlac-setting {pair!r} is not key=value")
+        try:
+            settings[key] = json.loads(value)
+        except json.JSONDecodeError:
+            settings[key] = value
+    return settings
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=100_000)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
+    parser.add_argument("--envs", nargs="+", default=list(SUITE), choices=list(SUITE))
+    parser.add_argument("--learners", nargs="+", default=["tlac", "ppo"], choices=["tlac", "ppo"])
+    parser.add_argument("--episodes", type=int, default=EVAL_EPISODES)
+    parser.add_argument("--workers", type=int, default=1)
+    parser.add_argument(
+        "--tlac-setting",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a TL-AC setting for every TL-AC run (repeatable)",
+    )
+    parser.add_argument("--out", type=Path, default=Path("results/user-envs"))
+    args = parser.parse_args()
+    settings = parse_settings(args.tlac_setting)
+    (args.out / "runs").mkdir(parents=True, exist_ok=True)
+    (args.out / "reference").mkdir(parents=True, exist_ok=True)
+    for env_id in args.envs:
+        ref_path = args.out / "reference" / f"{env_id}.json"
+        if not ref_path.exists():
+            ref_path.write_text(json.dumps(reference_returns(env_id, 100), indent=1))
+    todo = [
+        (env_id, learner, seed)
+        for seed in args.seeds
+        for env_id in args.envs
+        for learner in args.learners
+        if not (args.out / "runs" / f"{env_id}__{learner}__seed{seed}.json").exists()
+    ]
+    print(f"{len(todo)} runs to do with {args.workers} worker(s) -> {args.out}", flush=True)
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        futures = {
+            pool.submit(train_one, env_id, learner, seed, args.steps, args.episodes, settings): (
+                env_id,
+                learner,
+                seed,
+            )
+            for env_id, learner, seed in todo
+        }
+        for done, future in enumerate(as_completed(futures), 1):
+            env_id, learner, seed = futures[future]
+            result = future.result()
+            path = args.out / "runs" / f"{env_id}__{learner}__seed{seed}.json"
+            path.write_text(json.dumps(result, indent=1))
+            extra = (
+                f", training return {result['training_return']:.1f}"
+                if "training_return" in result
+                else ""
+            )
+            print(
+                f"[{done}/{len(todo)}] {env_id} {learner} seed {seed}: student alone "
+                f"{result['student_alone']:.1f}{extra} ({result['seconds']}s)",
+                flush=True,
+            )
+    table = report(args.out, args.envs)
+    command = "python benchmarks/user_envs.py " + " ".join(sys.argv[1:])
+    (args.out / "report.md").write_text(f"Made by `{command}`\n\n{table}")
+    print(table)
+
+
+if __name__ == "__main__":
+    main()
