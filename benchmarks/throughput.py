@@ -3,7 +3,8 @@
 Both run the paper's DoorKey preset (Table 5: 1 env, 16 steps per update, 5 epochs,
 minibatch 16, RMSpropTFLike, [64, 64] networks) on the same DoorKey 7x7 environment, in one
 process, in alternating chunks, on one thread. TL-AC has three teachers (optimal, random,
-random) and its high level; PPO has no teachers. Prints steps/s of each and their ratio.
+random) and its high level; PPO has no teachers. TL-AC is measured twice: its default
+(variant graduate) and variant paper (Algorithm 1). Prints steps/s of each and the ratios.
 
     python benchmarks/throughput.py --steps 20000
 """
@@ -50,12 +51,14 @@ def _timed(work) -> tuple[float, float]:
     return time.perf_counter() - wall, time.process_time() - cpu
 
 
-def make_tlac(seed: int):
+def make_tlac(seed: int, variant: str):
     from tlac import TLAC
     from tlac.presets import load_preset
 
     preset = load_preset("doorkey", "tlac")
-    model = TLAC("doorkey", teachers=["optimal", "random", "random"], seed=seed, **preset)
+    model = TLAC(
+        "doorkey", teachers=["optimal", "random", "random"], seed=seed, variant=variant, **preset
+    )
     model.learn(1008, progress_bar=False)  # warm-up
     return lambda steps: model.learn(steps, progress_bar=False)
 
@@ -77,7 +80,11 @@ def make_sb3_ppo(seed: int):
 def measure(steps: int, seed: int, rounds: int) -> dict[str, dict[str, float]]:
     """Alternate the two learners in ``rounds`` chunks of ``steps / rounds`` steps each, so
     that any background load on a shared machine falls on both alike."""
-    learners = {"tlac": make_tlac(seed), "sb3_ppo": make_sb3_ppo(seed)}
+    learners = {
+        "tlac": make_tlac(seed, "graduate"),
+        "tlac_paper": make_tlac(seed, "paper"),
+        "sb3_ppo": make_sb3_ppo(seed),
+    }
     totals = {name: [0.0, 0.0] for name in learners}
     chunk = steps // rounds
     for _ in range(rounds):
@@ -98,26 +105,28 @@ def main() -> None:
     args = parser.parse_args()
     torch.set_num_threads(1)
     measured = measure(args.steps, args.seed, args.rounds)
-    tlac, ppo = measured["tlac"], measured["sb3_ppo"]
-    result = {
-        "steps": args.steps,
-        "tlac_steps_per_cpu_s": round(tlac["cpu"], 1),
-        "sb3_ppo_steps_per_cpu_s": round(ppo["cpu"], 1),
-        "ratio_cpu": round(tlac["cpu"] / ppo["cpu"], 2),
-        "tlac_steps_per_wall_s": round(tlac["wall"], 1),
-        "sb3_ppo_steps_per_wall_s": round(ppo["wall"], 1),
-        "ratio_wall": round(tlac["wall"] / ppo["wall"], 2),
-        "torch": torch.__version__,
-    }
+    ppo = measured["sb3_ppo"]
+    result: dict = {"steps": args.steps}
+    for name in ("tlac", "tlac_paper", "sb3_ppo"):
+        for clock in ("cpu", "wall"):
+            result[f"{name}_steps_per_{clock}_s"] = round(measured[name][clock], 1)
+    for name in ("tlac", "tlac_paper"):
+        for clock in ("cpu", "wall"):
+            suffix = "" if name == "tlac" else "_paper"
+            result[f"ratio{suffix}_{clock}"] = round(measured[name][clock] / ppo[clock], 2)
+    result["torch"] = torch.__version__
     if args.json:
         print(json.dumps(result))
-    else:
-        print(f"{'':20s} {'steps/CPU-s':>12s} {'steps/wall-s':>13s}")
-        print(f"{'TL-AC (3 teachers)':20s} {tlac['cpu']:12.1f} {tlac['wall']:13.1f}")
-        print(f"{'SB3 PPO':20s} {ppo['cpu']:12.1f} {ppo['wall']:13.1f}")
-        print(
-            f"{'ratio TL-AC / PPO':20s} {tlac['cpu'] / ppo['cpu']:12.2f} {tlac['wall'] / ppo['wall']:13.2f}"
-        )
+        return
+    labels = {
+        "tlac": "TL-AC default",
+        "tlac_paper": "TL-AC paper",
+        "sb3_ppo": "SB3 PPO",
+    }
+    print(f"{'':16s} {'steps/CPU-s':>12s} {'steps/wall-s':>13s} {'/ PPO (CPU)':>12s}")
+    for name, label in labels.items():
+        m = measured[name]
+        print(f"{label:16s} {m['cpu']:12.1f} {m['wall']:13.1f} {m['cpu'] / ppo['cpu']:12.2f}")
 
 
 if __name__ == "__main__":
