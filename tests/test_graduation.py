@@ -74,6 +74,14 @@ def test_python_api_uses_the_domain_preset():
     assert TLAC("hopper", teachers=[], n_steps=32, batch_size=32).config.n_steps == 32
 
 
+def test_a_users_environment_gets_the_default_preset():
+    default = load_preset("default", "tlac")
+    assert default == {"ent_coef_high": 0.01}  # docs/graduation.md says why
+    model = TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: 0], seed=0)
+    assert model.config.ent_coef_high == 0.01 and model.config.n_steps == TLACConfig().n_steps
+    assert TLAC(gym.make("CartPole-v1"), teachers=[], ent_coef_high=0.0).config.ent_coef_high == 0
+
+
 def test_imitation_loss_hand_checked():
     nll = torch.tensor([[0.5, 2.0, 1.0], [3.0, 0.0, 4.0]])  # 2 teachers x 3 states
     trust = torch.tensor([[1.0, 0.0], [0.5, 0.5], [0.25, 0.75]])

@@ -51,7 +51,7 @@ from tlac.algorithms.nets import (
 from tlac.algorithms.optim import RMSpropTFLikeForeach
 from tlac.algorithms.rollout import Rollout, compute_gae
 from tlac.errors import ConfigError, UnknownNameError
-from tlac.presets import make_schedule, validate_schedule
+from tlac.presets import load_preset, make_schedule, validate_schedule
 from tlac.recording import EpisodeRecorder, Recorder, find_episode_recorder
 from tlac.selectors import LearnedSelector, RandomSelector, UCB1Selector
 from tlac.teachers.base import Teacher, as_teacher, unique_names
@@ -301,6 +301,8 @@ class TLAC:
     ):
         if isinstance(env, str):  # a named domain: its preset, as `tlac train` uses it
             settings = {**domain_preset(env), **settings}
+        else:  # a user's environment: the measured default (presets/default.yaml)
+            settings = {**load_preset("default", "tlac"), **settings}
         self.config = TLACConfig.from_settings(settings)
         self.seed = seed
         torch.manual_seed(seed)
