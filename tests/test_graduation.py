@@ -74,12 +74,13 @@ def test_python_api_uses_the_domain_preset():
     assert TLAC("hopper", teachers=[], n_steps=32, batch_size=32).config.n_steps == 32
 
 
-def test_a_users_environment_gets_the_default_preset():
-    default = load_preset("default", "tlac")
-    assert default == {"ent_coef_high": 0.01}  # docs/graduation.md says why
+def test_a_users_environment_gets_the_measured_defaults():
     model = TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: 0], seed=0)
-    assert model.config.ent_coef_high == 0.01 and model.config.n_steps == TLACConfig().n_steps
+    assert model.config == TLACConfig()  # docs/graduation.md: chosen on benchmarks/user_envs.py
+    assert model.config.ent_coef_high == 0.01 and TLACConfig(variant="paper").ent_coef_high is None
     assert TLAC(gym.make("CartPole-v1"), teachers=[], ent_coef_high=0.0).config.ent_coef_high == 0
+    hopper = TLAC(gym.make("Pendulum-v1"), teachers=[], preset="hopper", batch_size=8)
+    assert hopper.config.n_epochs == load_preset("hopper", "tlac")["n_epochs"]
 
 
 def test_imitation_loss_hand_checked():
@@ -113,8 +114,13 @@ def test_solo_episodes_follow_competence():
     solo.active[:] = [True, True, True, False]
     for i in range(3):
         solo.end(i, 0.0)  # three failed solo episodes set the floor at 0
-    solo.end(3, 1.0)
-    assert solo.floor == 0.0 and solo.competence == 0.0
+    for _ in range(3):
+        solo.end(3, 1.0)  # three assisted episodes show what the teachers reach
+    assert solo.floor == 0.0 and solo.best_assisted == 1.0 and solo.competence == 0.0
+    # assisted episodes getting worse must not read as a competent student
+    for _ in range(10):
+        solo.end(3, 0.0)
+    assert solo.best_assisted == 1.0 and solo.competence == 0.0
     solo.active[:] = True
     for _ in range(30):
         solo.end(0, 0.99)
@@ -122,6 +128,23 @@ def test_solo_episodes_follow_competence():
     assert solo.probability == 1.0
     flags = solo.start(np.array([True, False, True, False]))
     assert flags[0] and flags[2]
+
+
+def test_gate_agent_hands_steps_to_the_agent_only_as_competence_allows():
+    solo = SoloEpisodes(n_envs=4000, budget=0.05, seed=0, min_episodes=1)
+    agent = 2
+    choices = np.full(4000, agent)
+    teacher_logits = np.tile([0.0, np.log(3.0)], (4000, 1))  # teacher 1 preferred 3:1
+    gated = solo.gate_agent(choices, teacher_logits, agent)  # competence 0: never the agent
+    assert (gated != agent).all()
+    assert np.mean(gated == 1) == pytest.approx(0.75, abs=0.03)
+    solo.solo_returns.extend([0.0, 0.5])  # floor 0, solo mean 0.25 ...
+    solo.floor, solo.best_assisted = 0.0, 1.0  # ... of the teachers' 1.0: competence 0.25
+    assert np.mean(solo.gate_agent(choices, teacher_logits, agent) == agent) == pytest.approx(
+        0.25, abs=0.03
+    )
+    solo.active[:2000] = True  # solo rows are left alone (the caller forces the agent there)
+    assert (solo.gate_agent(np.zeros(4000, int), teacher_logits, agent) == 0).all()
 
 
 def test_advice_buffer_wraps_and_samples_aligned_rows():

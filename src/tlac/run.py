@@ -190,6 +190,8 @@ def train_run(
     (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
 
     algo_cls = get_algorithm(spec.algo)
+    if spec.algo == "tlac":
+        hp = {**hp, "preset": None}  # hp is the resolved preset already
     model = algo_cls(env=venv, teachers=teachers, seed=spec.seed, recorder=recorder, **hp)
 
     eval_rows: list[tuple[int, float, float, int]] = []

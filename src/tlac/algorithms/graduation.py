@@ -10,10 +10,18 @@ the teachers the high level trusts there (DAgger-style relabelling).
 How many episodes are solo is set by the student's measured competence: a solo episode costs
 the training return ``R_assisted - R_solo`` in expectation, so playing a share
 
-    p = min(1, budget / (1 - competence)),   competence = (R_solo - R_floor) / (R_assisted - R_floor)
+    p = min(1, budget / (1 - competence)),   competence = (R_solo - R_floor) / (R_best - R_floor)
 
-of episodes alone costs at most ``budget * (R_assisted - R_floor)``: little while the student is
-weak, and control passes to it entirely once it is as good as its teachers.
+of episodes alone costs at most ``budget * (R_best - R_floor)``: little while the student is
+weak, and control passes to it entirely once it is as good as its teachers. ``R_best`` is the
+best mean of recent assisted returns seen so far (what the teachers have shown they reach), not
+the latest: if assisted episodes get worse, that must not read as a competent student.
+
+The same competence gates the agent INSIDE assisted episodes: where the high level picks the
+agent, the agent acts with probability ``competence``, else a teacher drawn from the high
+level's preference among the teachers. Without this gate the high level can hand control to an
+incompetent student on noisy advantages (with imperfect or partial teachers it did, and the
+training return collapsed; docs/graduation.md).
 
 >>> solo_probability(0.0, 0.05), solo_probability(0.8, 0.05), solo_probability(0.99, 0.05)
 (0.05, 0.25, 1.0)
@@ -67,14 +75,13 @@ class SoloEpisodes:
         self.assisted_returns: deque[float] = deque(maxlen=window)
         self.min_episodes = min_episodes
         self.floor = np.inf
+        self.best_assisted = -np.inf
 
     @property
     def competence(self) -> float:
-        if len(self.solo_returns) < self.min_episodes or not self.assisted_returns:
+        if len(self.solo_returns) < self.min_episodes or not np.isfinite(self.best_assisted):
             return 0.0
-        return competence(
-            float(np.mean(self.solo_returns)), float(np.mean(self.assisted_returns)), self.floor
-        )
+        return competence(float(np.mean(self.solo_returns)), self.best_assisted, self.floor)
 
     @property
     def probability(self) -> float:
@@ -95,6 +102,24 @@ class SoloEpisodes:
                 self.floor = min(self.floor, float(np.mean(self.solo_returns)))
         else:
             self.assisted_returns.append(float(episode_return))
+            if len(self.assisted_returns) >= self.min_episodes:
+                self.best_assisted = max(self.best_assisted, float(np.mean(self.assisted_returns)))
+
+    def gate_agent(
+        self, choices: np.ndarray, teacher_logits: np.ndarray, agent: int
+    ) -> np.ndarray:
+        """Where the high level chose the ``agent`` in an assisted episode, keep it with
+        probability ``competence``; otherwise substitute a teacher sampled from
+        ``softmax(teacher_logits)`` (the high level's logits of the teachers only)."""
+        rows = np.flatnonzero((choices == agent) & ~self.active)
+        if len(rows) == 0:
+            return choices
+        demote = rows[self.rng.random(len(rows)) >= self.competence]
+        if len(demote):
+            choices = choices.copy()
+            gumbel = self.rng.gumbel(size=(len(demote), teacher_logits.shape[1]))
+            choices[demote] = np.argmax(teacher_logits[demote] + gumbel, axis=1)
+        return choices
 
 
 class AdviceBuffer:

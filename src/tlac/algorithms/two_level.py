@@ -66,6 +66,7 @@ VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
         "solo_budget": 0.05,
         "kl_rows": "high",
         "obs_encoding": "auto",
+        "ent_coef_high": 0.01,
     },
     "paper": {
         "distill_coef": 0.0,
@@ -74,6 +75,7 @@ VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
         "solo_budget": 0.0,
         "kl_rows": "agent",
         "obs_encoding": "raw",
+        "ent_coef_high": None,  # as ent_coef
     },
 }
 """What each TL-AC variant sets when the corresponding setting is left at None."""
@@ -98,7 +100,10 @@ class TLACConfig:
     ent_coef: float = 0.0
     """Entropy bonus of both levels, unless ent_coef_high / ent_coef_low are given."""
     ent_coef_high: float | None = None
+    """None: the variant's (graduate 0.01: without it the high level's choice collapsed early
+    on noisy advantages, docs/graduation.md; paper: ent_coef)."""
     ent_coef_low: float | None = None
+    """None: ent_coef."""
     vf_coef: float = 0.5
     max_grad_norm: float = 0.5
     gamma: float = 0.99
@@ -289,6 +294,9 @@ class TLAC:
     ``teachers``: objects with a batched ``predict``, SB3 models, plain functions of one
     observation, or -- when ``env`` is a domain name -- that domain's teacher names.
     ``predict`` uses the low-level policy ALONE: the student a user deploys.
+    ``preset``: the settings that ``settings`` override. ``"auto"``: a domain name's own preset
+    (as ``tlac train`` uses it), else none: TLACConfig's defaults, measured on users'
+    environments (docs/graduation.md); or a preset name.
     """
 
     def __init__(
@@ -297,12 +305,14 @@ class TLAC:
         teachers: Sequence[Any] = (),
         seed: int = 0,
         recorder: Recorder | None = None,
+        preset: str | None = "auto",
         **settings: Any,
     ):
-        if isinstance(env, str):  # a named domain: its preset, as `tlac train` uses it
-            settings = {**domain_preset(env), **settings}
-        else:  # a user's environment: the measured default (presets/default.yaml)
-            settings = {**load_preset("default", "tlac"), **settings}
+        if preset == "auto":
+            base = domain_preset(env) if isinstance(env, str) else {}
+        else:
+            base = {} if preset is None else load_preset(preset, "tlac")
+        settings = {**base, **settings}
         self.config = TLACConfig.from_settings(settings)
         self.seed = seed
         torch.manual_seed(seed)
@@ -629,6 +639,9 @@ class TLAC:
             choices = self.selector.select(high_logits, self._episode_starts)  # line 14
             if self.solo is not None:  # graduate variant: some episodes are the student's alone
                 solo = self.solo.start(self._episode_starts)
+                choices = self.solo.gate_agent(
+                    choices, high_logits[:, : self.n_teachers], self.n_teachers
+                )
                 choices = np.where(solo, self.n_teachers, choices)
                 ro.solo[t] = solo
             actions = self._sample_low(low_out, latent)  # line 16 (kept where the agent acts)
