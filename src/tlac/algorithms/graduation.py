@@ -105,9 +105,7 @@ class SoloEpisodes:
             if len(self.assisted_returns) >= self.min_episodes:
                 self.best_assisted = max(self.best_assisted, float(np.mean(self.assisted_returns)))
 
-    def gate_agent(
-        self, choices: np.ndarray, teacher_logits: np.ndarray, agent: int
-    ) -> np.ndarray:
+    def gate_agent(self, choices: np.ndarray, teacher_logits: np.ndarray, agent: int) -> np.ndarray:
         """Where the high level chose the ``agent`` in an assisted episode, keep it with
         probability ``competence``; otherwise substitute a teacher sampled from
         ``softmax(teacher_logits)`` (the high level's logits of the teachers only)."""

@@ -66,7 +66,6 @@ VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
         "solo_budget": 0.05,
         "kl_rows": "high",
         "obs_encoding": "auto",
-        "ent_coef_high": 0.01,
     },
     "paper": {
         "distill_coef": 0.0,
@@ -75,7 +74,6 @@ VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
         "solo_budget": 0.0,
         "kl_rows": "agent",
         "obs_encoding": "raw",
-        "ent_coef_high": None,  # as ent_coef
     },
 }
 """What each TL-AC variant sets when the corresponding setting is left at None."""
@@ -100,8 +98,7 @@ class TLACConfig:
     ent_coef: float = 0.0
     """Entropy bonus of both levels, unless ent_coef_high / ent_coef_low are given."""
     ent_coef_high: float | None = None
-    """None: the variant's (graduate 0.01: without it the high level's choice collapsed early
-    on noisy advantages, docs/graduation.md; paper: ent_coef)."""
+    """None: ent_coef."""
     ent_coef_low: float | None = None
     """None: ent_coef."""
     vf_coef: float = 0.5
@@ -151,6 +148,12 @@ class TLACConfig:
     min(1, solo_budget / (1 - competence)), competence measured from recent solo and assisted
     returns (tlac.algorithms.graduation), so solo play costs the training return about
     solo_budget of the teachers' margin. None: the variant's (graduate 0.05, paper 0)."""
+    agent_gate: bool = False
+    """With solo episodes: where the high level picks the agent in an assisted episode, the
+    agent acts only with probability competence, else a teacher the high level prefers
+    (tlac.algorithms.graduation). Off in both variants: it keeps the training return of
+    partial teachers (L + R) from collapsing, but slows the student elsewhere
+    (docs/graduation.md)."""
     kl_rows: str | None = None
     """Which rows give the low level's approximate KL for the target-KL stop: agent (where the
     agent acted: pi_low's own samples), all (every row, as a PPO built on SB3 computes it) or
@@ -295,8 +298,9 @@ class TLAC:
     observation, or -- when ``env`` is a domain name -- that domain's teacher names.
     ``predict`` uses the low-level policy ALONE: the student a user deploys.
     ``preset``: the settings that ``settings`` override. ``"auto"``: a domain name's own preset
-    (as ``tlac train`` uses it), else none: TLACConfig's defaults, measured on users'
-    environments (docs/graduation.md); or a preset name.
+    (as ``tlac train`` uses it), else ``presets/default.yaml`` (measured on users'
+    environments, docs/graduation.md); a preset name; or ``None``: TLACConfig's defaults only
+    (what ``tlac train`` passes, having resolved the preset already).
     """
 
     def __init__(
@@ -309,7 +313,7 @@ class TLAC:
         **settings: Any,
     ):
         if preset == "auto":
-            base = domain_preset(env) if isinstance(env, str) else {}
+            base = domain_preset(env) if isinstance(env, str) else load_preset("default", "tlac")
         else:
             base = {} if preset is None else load_preset(preset, "tlac")
         settings = {**base, **settings}
@@ -639,9 +643,10 @@ class TLAC:
             choices = self.selector.select(high_logits, self._episode_starts)  # line 14
             if self.solo is not None:  # graduate variant: some episodes are the student's alone
                 solo = self.solo.start(self._episode_starts)
-                choices = self.solo.gate_agent(
-                    choices, high_logits[:, : self.n_teachers], self.n_teachers
-                )
+                if cfg.agent_gate:
+                    choices = self.solo.gate_agent(
+                        choices, high_logits[:, : self.n_teachers], self.n_teachers
+                    )
                 choices = np.where(solo, self.n_teachers, choices)
                 ro.solo[t] = solo
             actions = self._sample_low(low_out, latent)  # line 16 (kept where the agent acts)
