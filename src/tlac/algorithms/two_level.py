@@ -148,6 +148,10 @@ class TLACConfig:
     min(1, solo_budget / (1 - competence)), competence measured from recent solo and assisted
     returns (tlac.algorithms.graduation), so solo play costs the training return about
     solo_budget of the teachers' margin. None: the variant's (graduate 0.05, paper 0)."""
+    imitate_after_stop: bool = False
+    """When the target-KL stop ends an update early, spend its remaining gradient steps on the
+    imitation term alone (the high level, the low level's policy gradient and the critic stop as
+    in the paper). Meant with kl_rows: agent; a candidate, docs/graduation.md."""
     agent_gate: bool = False
     """With solo episodes: where the high level picks the agent in an assisted episode, the
     agent acts only with probability competence, else a teacher the high level prefers
@@ -724,10 +728,13 @@ class TLAC:
         high_adv_shift = cfg.advice_cost * (1.0 - agent_rows) if cfg.advice_cost else None
         stats: list[torch.Tensor] = []
         imitation_stats: list[torch.Tensor] = []
-        stopped_early = False
+        stopped_early = imitation_only = False
         for _epoch in range(cfg.n_epochs):
             perm = torch.randperm(n, generator=self.generator)
             for start in range(0, n, cfg.batch_size):
+                if imitation_only:  # after the KL stop: the imitation term's steps only
+                    imitation_stats.append(self._imitation_step(distill))
+                    continue
                 idx = perm[start : start + cfg.batch_size]
                 adv = data["advantages"][idx]
                 if cfg.normalize_advantage:
@@ -786,12 +793,12 @@ class TLAC:
                 stats.append(torch.cat([policy_losses.detach(), vf_loss.detach()[None], kls]))
                 if target_kl is not None and kl > 1.5 * target_kl:
                     stopped_early = True  # SB3's rule: stop before a step that moves too far
+                    if cfg.imitate_after_stop and advice is not None:
+                        imitation_only = True
+                        continue
                     break
-                self.optimizer.zero_grad(set_to_none=True)
-                loss.backward()
-                nn.utils.clip_grad_norm_(self.params, cfg.max_grad_norm, foreach=True)
-                self.optimizer.step()
-            if stopped_early:
+                self._gradient_step(loss)
+            if stopped_early and not imitation_only:
                 break
         levels = ["low", "high"][: old_log_probs.shape[0]]
         keys = [f"policy_loss_{lv}" for lv in levels] + ["value_loss"]
@@ -817,6 +824,24 @@ class TLAC:
             }
         )
         return out
+
+    def _gradient_step(self, loss: torch.Tensor) -> None:
+        self.optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        nn.utils.clip_grad_norm_(self.params, self.config.max_grad_norm, foreach=True)
+        self.optimizer.step()
+
+    def _imitation_step(self, distill: float) -> torch.Tensor:
+        """One gradient step of the imitation term alone, on replayed states."""
+        assert self.advice_buffer is not None
+        obs, advice = self.advice_buffer.sample(
+            self.config.imitation_batch_size, self._replay_generator
+        )
+        high_logits, low_out, _, latent = self._heads(obs)
+        trust = torch.softmax(high_logits.detach()[:, : self.n_teachers], -1)
+        imitation = losses.imitation_loss(self._advice_nll(low_out, latent, advice), trust)
+        self._gradient_step(distill * imitation)
+        return imitation.detach()
 
     def learn(
         self,
