@@ -253,7 +253,6 @@ class TLACConfig:
 def domain_preset(name: str) -> dict[str, Any]:
     """The TL-AC settings of a named domain's preset (paper Tables 5, 8, 10)."""
     from tlac.envs import get_domain
-    from tlac.presets import load_preset
 
     domain = get_domain(name)
     return load_preset(domain.presets["tlac"], "tlac") if "tlac" in domain.presets else {}
@@ -526,6 +525,18 @@ class TLAC:
             )
         return losses.scaled_squared_error(low_out, advice, self._action_half_width)
 
+    def _imitation_term(
+        self,
+        high_logits: torch.Tensor,
+        low_out: torch.Tensor,
+        latent: torch.Tensor,
+        advice: torch.Tensor,
+    ) -> torch.Tensor:
+        """DAgger on replayed states: each teacher's advice weighted by the high level's trust
+        in that teacher (softmax over the teachers' logits only, no gradient)."""
+        trust = torch.softmax(high_logits.detach()[:, : self.n_teachers], -1)
+        return losses.imitation_loss(self._advice_nll(low_out, latent, advice), trust)
+
     def _mean_entropies(
         self, high_logits: torch.Tensor, low_out: torch.Tensor, latent: torch.Tensor
     ) -> torch.Tensor:
@@ -779,11 +790,7 @@ class TLAC:
                 vf_loss = losses.value_loss(values, data["returns"][idx])
                 loss = policy_losses.sum() + cfg.vf_coef * vf_loss
                 if advice is not None:
-                    # DAgger: replayed states, each teacher weighted by the high level's trust
-                    trust = torch.softmax(rep_high.detach()[:, : self.n_teachers], -1)
-                    imitation = losses.imitation_loss(
-                        self._advice_nll(rep_low, rep_latent, rep_advice), trust
-                    )
+                    imitation = self._imitation_term(rep_high, rep_low, rep_latent, rep_advice)
                     loss = loss + distill * imitation
                     imitation_stats.append(imitation.detach())
                 if self._use_entropy:  # skipped when both coefficients are 0 (Table 5)
@@ -838,8 +845,7 @@ class TLAC:
             self.config.imitation_batch_size, self._replay_generator
         )
         high_logits, low_out, _, latent = self._heads(obs)
-        trust = torch.softmax(high_logits.detach()[:, : self.n_teachers], -1)
-        imitation = losses.imitation_loss(self._advice_nll(low_out, latent, advice), trust)
+        imitation = self._imitation_term(high_logits, low_out, latent, advice)
         self._gradient_step(distill * imitation)
         return imitation.detach()
 

@@ -8,8 +8,9 @@ Observation
     MiniGrid's 3-tuple ``(object, colour, state)``; the agent's cell holds
     ``(agent=10, red=0, direction)``. The ``(width, height, 3)`` array, indexed
     ``[x, y, channel]``, is flattened in C order to 147 ``uint8`` values (raw indices, not
-    normalised; integer-typed, since they are categories). The paper: "the state is a 3-tuple vector". Teachers and the agent see the
-    same full state, so a scripted teacher and the region labels can be read off it.
+    normalised; integer-typed, since they are categories). The paper: "the state is a 3-tuple
+    vector". Teachers and the agent see the same full state, so a scripted teacher and the
+    region labels can be read off it.
 Actions
     6 discrete actions, as the paper says: MiniGrid's left, right, forward, pickup, drop and
     toggle. MiniGrid's 7th action, ``done``, does nothing in DoorKey (it only spends a step),
