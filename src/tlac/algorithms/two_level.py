@@ -148,6 +148,10 @@ class TLACConfig:
     min(1, solo_budget / (1 - competence)), competence measured from recent solo and assisted
     returns (tlac.algorithms.graduation), so solo play costs the training return about
     solo_budget of the teachers' margin. None: the variant's (graduate 0.05, paper 0)."""
+    solo_critic: bool = True
+    """Whether the shared critic also learns from solo episodes. False: it fits the returns of
+    assisted episodes only, the behaviour the high level's advantages are about (a candidate,
+    docs/graduation.md)."""
     imitate_after_stop: bool = False
     """When the target-KL stop ends an update early, spend its remaining gradient steps on the
     imitation term alone (the high level, the low level's policy gradient and the critic stop as
@@ -728,6 +732,8 @@ class TLAC:
             weights = kl_weights
         elif self.solo is not None:
             weights = torch.stack([torch.ones(n), high_rows])[: old_log_probs.shape[0]]
+        # solo_critic False: the critic fits the returns of assisted episodes only
+        critic_rows = None if cfg.solo_critic or self.solo is None else high_rows
         # graduation (docs/graduation.md): what every teacher advises in every collected state,
         # imitated by the low level in proportion to the high level's trust in that teacher
         distill = self.distill_schedule(progress_remaining)
@@ -787,7 +793,9 @@ class TLAC:
                     kl_weights[:, idx],
                 )
                 # the one shared critic (Eq. 5)
-                vf_loss = losses.value_loss(values, data["returns"][idx])
+                vf_loss = losses.value_loss(
+                    values, data["returns"][idx], None if critic_rows is None else critic_rows[idx]
+                )
                 loss = policy_losses.sum() + cfg.vf_coef * vf_loss
                 if advice is not None:
                     imitation = self._imitation_term(rep_high, rep_low, rep_latent, rep_advice)
