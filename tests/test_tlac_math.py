@@ -137,6 +137,16 @@ def test_stacked_mlp_members_equal_their_own_mlps_even_with_different_widths():
     np.testing.assert_allclose(
         net.forward_numpy(x.numpy())[0], out.detach().numpy(), rtol=1e-5, atol=1e-6
     )
+    # one member alone computes the same output and last hidden layer, with gradient only there
+    _, hidden = net(x)
+    for m in range(3):
+        member_out, member_hidden = net.forward_member(x, m)
+        torch.testing.assert_close(member_out, out[m])
+        torch.testing.assert_close(member_hidden, hidden[m])
+    net.zero_grad()
+    net.forward_member(x, 1)[0].sum().backward()
+    grad = net.weights[0].grad
+    assert float(grad[1].abs().sum()) > 0 and float(grad[[0, 2]].abs().sum()) == 0.0
     # a gradient step leaves the padded weights at exactly zero
     opt = RMSpropTFLikeForeach(net.parameters(), lr=0.1)
     net(x)[0].sum().backward()

@@ -96,6 +96,20 @@ class StackedMLP(nn.Module):
                 last_hidden = h
         return h, last_hidden
 
+    def forward_member(self, x: torch.Tensor, m: int) -> tuple[torch.Tensor, torch.Tensor]:
+        """:meth:`forward` of member ``m`` alone: ``(out, last_hidden)`` of shapes
+        ``(B, max_out)`` and ``(B, max_hidden)``, with autograd into that member's weights only.
+        Cheaper than the stacked pass when only one member's output is needed."""
+        h = x
+        last = len(self._layers) - 1
+        last_hidden = h
+        for i, (w, b, mask) in enumerate(self._layers):
+            h = torch.addmm(b[m], h, (w[m] * mask[m]) if self.needs_mask else w[m])
+            if i < last:
+                h = torch.tanh(h)
+                last_hidden = h
+        return h, last_hidden
+
     def forward_numpy(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`forward` without autograd, in NumPy, for acting. Padded weights are exactly
         zero (the mask is applied in every training forward pass, so gradients never reach

@@ -462,6 +462,15 @@ class TLAC:
             hidden[LOW, :, : self.config.net_arch_low[-1]],
         )
 
+    def _replay_heads(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """What the imitation term needs on replayed states: (high logits without gradient,
+        low output, low-level last hidden layer), computing only those two members."""
+        x = obs if self.encoder is None else self.encoder.torch(obs)
+        with torch.no_grad():
+            high = self.net.forward_member(x, HIGH)[0][:, : self.n_choices]
+        low, hidden = self.net.forward_member(x, LOW)
+        return high, low[:, : self.net.out_dims[LOW]], hidden[:, : self.config.net_arch_low[-1]]
+
     def _act_heads(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Acting pass: the same four heads as :meth:`_heads`, in NumPy, without autograd."""
         x = np.asarray(obs, dtype=np.float32).reshape(-1, self.obs_dim)
@@ -758,22 +767,7 @@ class TLAC:
                     adv = losses.normalize(adv)
                 if high_adv_shift is not None and self.train_high:
                     adv = torch.stack([adv, adv - high_adv_shift[idx]])  # per level: (2, B)
-                obs = data["obs"][idx]
-                if advice is not None:  # one forward pass for the rollout and the replay rows
-                    rep_obs, rep_advice = self.advice_buffer.sample(
-                        cfg.imitation_batch_size, self._replay_generator
-                    )
-                    obs = torch.cat([obs, rep_obs])
-                high_logits, low_out, values, latent = self._heads(obs)
-                if advice is not None:
-                    b = len(idx)
-                    rep_high, rep_low, rep_latent = high_logits[b:], low_out[b:], latent[b:]
-                    high_logits, low_out, values, latent = (
-                        high_logits[:b],
-                        low_out[:b],
-                        values[:b],
-                        latent[:b],
-                    )
+                high_logits, low_out, values, latent = self._heads(data["obs"][idx])
                 # low level, Eq. 3: log pi_low(a|s) A(s, a) on the EXECUTED actions
                 lp_low = self._low_log_prob(low_out, latent, data["actions"][idx])
                 if self.train_high:
@@ -798,7 +792,7 @@ class TLAC:
                 )
                 loss = policy_losses.sum() + cfg.vf_coef * vf_loss
                 if advice is not None:
-                    imitation = self._imitation_term(rep_high, rep_low, rep_latent, rep_advice)
+                    imitation = self._replayed_imitation()
                     loss = loss + distill * imitation
                     imitation_stats.append(imitation.detach())
                 if self._use_entropy:  # skipped when both coefficients are 0 (Table 5)
@@ -846,14 +840,17 @@ class TLAC:
         nn.utils.clip_grad_norm_(self.params, self.config.max_grad_norm, foreach=True)
         self.optimizer.step()
 
-    def _imitation_step(self, distill: float) -> torch.Tensor:
-        """One gradient step of the imitation term alone, on replayed states."""
+    def _replayed_imitation(self) -> torch.Tensor:
+        """The imitation term on a minibatch of states replayed from the advice buffer."""
         assert self.advice_buffer is not None
         obs, advice = self.advice_buffer.sample(
             self.config.imitation_batch_size, self._replay_generator
         )
-        high_logits, low_out, _, latent = self._heads(obs)
-        imitation = self._imitation_term(high_logits, low_out, latent, advice)
+        return self._imitation_term(*self._replay_heads(obs), advice)
+
+    def _imitation_step(self, distill: float) -> torch.Tensor:
+        """One gradient step of the imitation term alone, on replayed states."""
+        imitation = self._replayed_imitation()
         self._gradient_step(distill * imitation)
         return imitation.detach()
 
