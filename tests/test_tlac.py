@@ -112,6 +112,49 @@ def test_save_load_gives_identical_predictions(tmp_path):
         TLAC.load(path, env=pendulum_vec(1), teachers=[swing_teacher, swing_teacher])
 
 
+class _RunsCodeWhenUnpickled:
+    """A pickle payload that would create a file if unpickled with weights_only=False."""
+
+    def __init__(self, marker):
+        self.marker = str(marker)
+
+    def __reduce__(self):
+        return (open, (self.marker, "w"))
+
+
+def test_load_runs_no_code_and_rejects_bad_files_with_one_error(tmp_path):
+    import pickle
+
+    marker = tmp_path / "code-ran"
+    crafted = tmp_path / "crafted.pt"
+    torch.save({"format": "tlac.TLAC/2", "payload": _RunsCodeWhenUnpickled(marker)}, crafted)
+    with pytest.raises(ConfigError, match="not a loadable TL-AC model file"):
+        TLAC.load(crafted)
+    assert not marker.exists()
+    # a real checkpoint, then broken copies of it
+    model = TLAC(pendulum_vec(1), teachers=[swing_teacher], seed=0, n_steps=8, batch_size=8)
+    good = model.save(tmp_path / "model").read_bytes()
+    for name, data in [
+        ("empty.pt", b""),
+        ("garbage.pt", b"not a checkpoint at all" * 10),
+        ("truncated.pt", good[: len(good) // 2]),
+        ("pickle.pt", pickle.dumps({"format": "tlac.TLAC/2"})),
+    ]:
+        (tmp_path / name).write_bytes(data)
+        with pytest.raises(ConfigError, match=name):
+            TLAC.load(tmp_path / name)
+    torch.save({"format": "tlac.TLAC/1"}, tmp_path / "old.pt")
+    with pytest.raises(ConfigError, match="older tlac"):
+        TLAC.load(tmp_path / "old.pt")
+
+
+def test_load_checks_the_environment_against_the_checkpoint(tmp_path):
+    model = TLAC(pendulum_vec(1), teachers=[swing_teacher], seed=0, n_steps=8, batch_size=8)
+    path = model.save(tmp_path / "model")
+    with pytest.raises(ConfigError, match="observation space"):
+        TLAC.load(path, env="doorkey")
+
+
 def test_same_seed_same_learning_curve():
     def curve(seed: int) -> list[float]:
         model = TLAC("doorkey", teachers=["good", "random"], seed=seed, n_steps=16, batch_size=16)

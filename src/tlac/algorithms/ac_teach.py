@@ -55,6 +55,7 @@ from tlac.algorithms.common import (
     make_progress_bar,
     polyak_update,
     real_next_obs,
+    safe_torch_load,
 )
 from tlac.errors import ConfigError
 from tlac.recording import Recorder
@@ -738,7 +739,7 @@ class ACTeach:
         p = checkpoint_path(path)
         if not p.exists():
             raise ConfigError(f"no ac-teach model at {str(p)!r}")
-        data = torch.load(p, map_location="cpu", weights_only=True)
+        data = safe_torch_load(p, "ac-teach model")
         obj = cls(
             env=None, teachers=teachers, seed=int(data["seed"]), recorder=None, **data["config"]
         )

@@ -4,6 +4,7 @@ target networks, and the truncation-aware next observation."""
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -122,3 +123,68 @@ def query_teachers(
         rows = np.flatnonzero(choices == k)
         teacher = teachers[k]
         out[rows] = check_actions(teacher.name, teacher.predict(obs[rows]), action_space, len(rows))
+
+
+def space_to_data(space: gym.Space) -> dict[str, Any]:
+    """A Box or Discrete space as plain data (lists, numbers, strings), so that checkpoints
+    load with ``torch.load(weights_only=True)``: nothing in them is unpickled as code.
+
+    >>> space_to_data(gym.spaces.Discrete(3))
+    {'type': 'Discrete', 'n': 3, 'start': 0}
+    >>> space_from_data(space_to_data(gym.spaces.Box(-1.0, 1.0, (2,)))) == gym.spaces.Box(-1.0, 1.0, (2,))
+    True
+    """
+    if isinstance(space, gym.spaces.Discrete):
+        return {"type": "Discrete", "n": int(space.n), "start": int(space.start)}
+    if isinstance(space, gym.spaces.Box):
+        return {
+            "type": "Box",
+            "low": space.low.tolist(),
+            "high": space.high.tolist(),
+            "shape": list(space.shape),
+            "dtype": str(space.dtype),
+        }
+    raise ConfigError(
+        f"cannot save a model for a {type(space).__name__} space; expected Box or Discrete"
+    )
+
+
+def space_from_data(data: Any) -> gym.Space:
+    """The inverse of :func:`space_to_data`; a malformed entry raises ConfigError."""
+    try:
+        if data["type"] == "Discrete":
+            return gym.spaces.Discrete(int(data["n"]), start=int(data["start"]))
+        if data["type"] == "Box":
+            dtype = np.dtype(data["dtype"])
+            low = np.asarray(data["low"], dtype=dtype).reshape(data["shape"])
+            high = np.asarray(data["high"], dtype=dtype).reshape(data["shape"])
+            return gym.spaces.Box(low, high, dtype=dtype)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ConfigError(f"malformed space in the checkpoint: {exc}") from None
+    raise ConfigError(f"malformed space in the checkpoint: {data!r:.80}")
+
+
+def spaces_match(a: gym.Space, b: gym.Space) -> bool:
+    """Same kind, shape, dtype and bounds (Box) or size (Discrete)."""
+    if isinstance(a, gym.spaces.Discrete) and isinstance(b, gym.spaces.Discrete):
+        return int(a.n) == int(b.n) and int(a.start) == int(b.start)
+    if isinstance(a, gym.spaces.Box) and isinstance(b, gym.spaces.Box):
+        return (
+            a.shape == b.shape
+            and a.dtype == b.dtype
+            and np.array_equal(a.low, b.low)
+            and np.array_equal(a.high, b.high)
+        )
+    return False
+
+
+def safe_torch_load(path: Path, what: str) -> Any:
+    """``torch.load(weights_only=True)`` (no code runs, whatever the file holds), with any
+    failure (not a checkpoint, truncated, empty, a pickle that needs code) as one ConfigError."""
+    try:
+        with warnings.catch_warnings():  # a plain pickle's protocol warning says nothing useful
+            warnings.simplefilter("ignore", UserWarning)
+            return torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as exc:  # noqa: BLE001 - every failure of an untrusted file is the same error
+        reason = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise ConfigError(f"{str(path)!r} is not a loadable {what} file ({reason[:160]})") from None

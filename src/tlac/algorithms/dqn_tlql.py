@@ -50,6 +50,7 @@ from tlac.algorithms.common import (
     polyak_update,
     query_teachers,
     real_next_obs,
+    safe_torch_load,
     td_targets,
 )
 from tlac.errors import ConfigError
@@ -372,7 +373,7 @@ class DQNTLQL:
         p = checkpoint_path(path)
         if not p.exists():
             raise ConfigError(f"no dqn-tlql model at {str(p)!r}")
-        data = torch.load(p, map_location="cpu", weights_only=True)
+        data = safe_torch_load(p, "dqn-tlql model")
         obj = cls(
             env=None, teachers=teachers, seed=int(data["seed"]), recorder=None, **data["config"]
         )

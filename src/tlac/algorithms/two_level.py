@@ -31,7 +31,15 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 from torch import nn
 
 from tlac.algorithms import losses
-from tlac.algorithms.common import checkpoint_path, make_progress_bar, query_teachers
+from tlac.algorithms.common import (
+    checkpoint_path,
+    make_progress_bar,
+    query_teachers,
+    safe_torch_load,
+    space_from_data,
+    space_to_data,
+    spaces_match,
+)
 from tlac.algorithms.encoding import ENCODINGS, make_encoder
 from tlac.algorithms.graduation import AdviceBuffer, SoloEpisodes
 from tlac.algorithms.nets import (
@@ -57,6 +65,10 @@ from tlac.selectors import LearnedSelector, RandomSelector, UCB1Selector
 from tlac.teachers.base import Teacher, as_teacher, unique_names
 
 Schedule = float | dict
+
+FORMAT = "tlac.TLAC/2"
+"""Checkpoint format: plain data and tensors only (loads with weights_only=True). Format 1
+pickled the Gymnasium spaces and needed an unsafe load."""
 
 VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
     "graduate": {
@@ -935,12 +947,12 @@ class TLAC:
         path = checkpoint_path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         state = {
-            "format": "tlac.TLAC/1",
+            "format": FORMAT,
             "config": dataclasses.asdict(self.config),
             "seed": self.seed,
             "num_timesteps": self.num_timesteps,
-            "observation_space": self.observation_space,
-            "action_space": self.action_space,
+            "observation_space": space_to_data(self.observation_space),
+            "action_space": space_to_data(self.action_space),
             "teacher_names": self.teacher_names,
             "net": self.net.state_dict(),
             "log_std": None if self.log_std is None else self.log_std.detach().clone(),
@@ -960,9 +972,13 @@ class TLAC:
             path = path.with_name(path.name + ".pt")
         if not path.exists():
             raise ConfigError(f"no TL-AC model at {str(path)!r}")
-        state = torch.load(path, weights_only=False)
-        if state.get("format") != "tlac.TLAC/1":
-            raise ConfigError(f"{str(path)!r} is not a TL-AC model file")
+        state = safe_torch_load(path, "TL-AC model")
+        if not isinstance(state, dict) or state.get("format") != FORMAT:
+            found = state.get("format") if isinstance(state, dict) else None
+            hint = f" (it is {found}, from an older tlac: retrain it)" if found else ""
+            raise ConfigError(f"{str(path)!r} is not a {FORMAT} model file{hint}")
+        obs_space = space_from_data(state["observation_space"])
+        action_space = space_from_data(state["action_space"])
         model = cls.__new__(cls)
         model.config = TLACConfig(**state["config"])
         model.seed = state["seed"]
@@ -973,6 +989,14 @@ class TLAC:
         if env is not None:
             model.env, domain = _as_vec_env(env, model.config.n_envs, model.seed)
             model.n_envs = model.env.num_envs
+            for kind, saved, given in (
+                ("observation", obs_space, model.env.observation_space),
+                ("action", action_space, model.env.action_space),
+            ):
+                if not spaces_match(saved, given):
+                    raise ConfigError(
+                        f"the environment's {kind} space {given} does not match the model's {saved}"
+                    )
         else:
             model.env, domain, model.n_envs = None, None, 1
         model.teachers = []
@@ -985,7 +1009,7 @@ class TLAC:
                     f"the model was trained with {len(names)} teachers ({', '.join(names) or 'none'}); "
                     f"got {len(model.teachers)}"
                 )
-        model._build(state["observation_space"], state["action_space"], names)
+        model._build(obs_space, action_space, names)
         model.net.load_state_dict(state["net"])
         if state["log_std"] is not None:
             assert model.log_std is not None
