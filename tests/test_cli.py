@@ -73,6 +73,16 @@ def test_train_then_eval(tmp_path, capsys):
         (["train", "--set", "gamma=2"], "gamma must be in [0, 1]"),
         (["eval", "/no/such/run"], "run folder '/no/such/run' does not exist"),
         (["train", "--algo", "ppo", "--teachers", "optimal"], "drop --teachers"),
+        (["train", "--steps", "2.5e0"], "expected a positive integer, got '2.5e0'"),
+        (["train", "--steps", "1e999"], "expected a positive integer, got '1e999'"),
+        (["train", "--set", "learning_rate=.nan"], "learning_rate must be a finite number"),
+        (["train", "--set", "target_kl=-1"], "target_kl must be > 0"),
+        (["train", "--set", "normalize_advantage=maybe"], "must be true or false"),
+        (
+            ["train", "--algo", "ppo", "--set", "learning_rate=.nan"],
+            "learning_rate must be a finite",
+        ),
+        (["train", "--algo", "dqn-tlql", "--set", "gamma=.inf"], "gamma must be a finite number"),
     ],
 )
 def test_bad_input_exits_2_with_one_line(args, fragment):
@@ -82,6 +92,34 @@ def test_bad_input_exits_2_with_one_line(args, fragment):
     assert len(lines) == 1, proc.stderr
     assert fragment in lines[0]
     assert "Traceback" not in proc.stderr
+
+
+def _tree_bytes(folder: Path) -> dict[str, bytes]:
+    return {
+        str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()
+    }
+
+
+def test_out_refuses_a_finished_run_unless_forced(tmp_path):
+    out = tmp_path / "run"
+    base = ["train", "--steps", "64", "--out", str(out), "--no-progress", "--eval-episodes", "1"]
+    assert main(base) == 0
+    before = _tree_bytes(out)
+    for extra in ([], ["--seed", "1"], ["--set", "learning_rate=.nan"]):
+        proc = run_cli(*base, *extra)
+        assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
+        assert len(proc.stderr.strip().splitlines()) == 1
+    assert _tree_bytes(out) == before  # nothing touched
+    assert "finished run" in run_cli(*base).stderr
+    assert main([*base, "--force", "--seed", "1"]) == 0
+    assert "seed: 1" in (out / "config.yaml").read_text()
+    # a folder holding something else is refused too, and left as it was
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "notes.txt").write_text("mine")
+    proc = run_cli("train", "--steps", "64", "--out", str(other), "--no-progress")
+    assert proc.returncode == 2 and "is not empty" in proc.stderr
+    assert _tree_bytes(other) == {"notes.txt": b"mine"}
 
 
 def test_eval_of_a_folder_that_is_not_a_run(tmp_path):

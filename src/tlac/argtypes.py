@@ -4,14 +4,18 @@ message that names the value (argparse turns it into one line and exit status 2)
 from __future__ import annotations
 
 import argparse
+import math
 
 
 def positive_int(text: str) -> int:
     """An integer >= 1; ``1e5`` style is accepted for step counts."""
     try:
-        value = int(float(text)) if "e" in text.lower() else int(text)
+        number = float(text) if "e" in text.lower() else int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if not math.isfinite(number) or number != int(number):
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    value = int(number)
     if value <= 0:
         raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
     return value

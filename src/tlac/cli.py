@@ -38,8 +38,26 @@ def _parse_overrides(pairs: list[str]) -> dict[str, Any]:
         if "=" not in pair:
             raise ConfigError(f"--set expects KEY=VALUE, got {pair!r}")
         key, value = pair.split("=", 1)
-        out[key.strip()] = yaml.safe_load(value)
+        try:
+            out[key.strip()] = _numbers_from_text(yaml.safe_load(value))
+        except yaml.YAMLError:
+            raise ConfigError(f"--set {key.strip()}: {value!r} is not a YAML value") from None
     return out
+
+
+def _numbers_from_text(value: Any) -> Any:
+    """YAML 1.1 reads ``1e-3`` as text; a user typing it means the number."""
+    if isinstance(value, str):
+        try:
+            number = float(value)
+        except ValueError:
+            return value
+        return number if any(c.isdigit() for c in value) else value
+    if isinstance(value, list):
+        return [_numbers_from_text(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _numbers_from_text(v) for k, v in value.items()}
+    return value
 
 
 def _cmd_train(args: argparse.Namespace) -> int:
@@ -84,7 +102,9 @@ def _cmd_train(args: argparse.Namespace) -> int:
             f"episodes) | training return {train} (teachers included)"
         )
 
-    result = train_run(spec, out, progress_bar=not args.no_progress, on_eval=report_eval)
+    result = train_run(
+        spec, out, progress_bar=not args.no_progress, on_eval=report_eval, replace=args.force
+    )
     print(
         f"trained {result['steps']} steps in {result['wall_time_s']:.0f} s "
         f"({result['steps_per_s']:.0f} steps/s), {result['episodes']} episodes"
@@ -242,6 +262,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--tensorboard", action="store_true", help="also write TensorBoard logs to RUN/tb"
     )
     train.add_argument("--no-progress", action="store_true", help="no progress bar")
+    train.add_argument(
+        "--force",
+        action="store_true",
+        help="replace the run files in a non-empty --out (a finished run included)",
+    )
     train.set_defaults(func=_cmd_train)
 
     ev = sub.add_parser(

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import torch
 import yaml
+from filelock import FileLock, Timeout
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from tlac.algorithms import NO_ADVICE, get_algorithm
@@ -33,6 +34,7 @@ from tlac.recording import EpisodeRecorder, Recorder
 
 SELECTORS = ("learned", "random", "ucb1")
 RESULT_FILE = "result.json"
+LOCK_FILE = ".run.lock"
 RUN_FILES = (
     "episodes.csv",
     "teacher_usage.csv",
@@ -147,22 +149,74 @@ def _clear_run_folder(out: Path) -> None:
             p.unlink()
 
 
+def check_out_folder(out: Path, spec: RunSpec, domain: Domain, replace: bool) -> None:
+    """Refuse to write a run into ``out`` when that would destroy something: a finished run,
+    another run's files, or anything else (unless ``replace``). An unfinished run of the same
+    settings is redone. Raises ConfigError naming the folder and the way out."""
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out {str(out)!r} is a file; expected a folder for the run")
+    if replace or not out.exists() or not any(out.iterdir()):
+        return
+    if (out / RESULT_FILE).exists():
+        raise ConfigError(
+            f"--out {str(out)!r} holds a finished run; give another folder, or --force to replace it"
+        )
+    try:
+        saved = yaml.safe_load((out / "config.yaml").read_text()) or {}
+    except (OSError, yaml.YAMLError):
+        saved = None
+    same = (
+        isinstance(saved, dict)
+        and saved.get("teacher_kinds") == spec.resolved_teachers(domain)
+        and all(saved.get(k) == v for k, v in dataclasses.asdict(spec).items() if k != "teachers")
+    )
+    if not same:
+        raise ConfigError(
+            f"--out {str(out)!r} is not empty and is not an unfinished run of these settings; "
+            "give another folder, or --force to replace its run files"
+        )
+
+
 def train_run(
     spec: RunSpec,
     out_dir: str | Path,
     progress_bar: bool = False,
     on_eval: Any = None,
+    replace: bool = True,
 ) -> dict[str, Any]:
     """Train one run described by ``spec`` and write its run folder; returns ``result.json``'s
-    content. An unfinished folder at ``out_dir`` (no ``result.json``) is redone from scratch.
-    ``on_eval(timestep, student_alone_mean, training_return)`` is called after every evaluation
-    of the student alone (``training_return``: mean of the recent training episodes, teachers
-    included, or ``None`` before the first episode ends)."""
+    content. Every setting is checked before anything is written. An unfinished run of the
+    same settings at ``out_dir`` (no ``result.json``) is redone from scratch; with
+    ``replace=False`` (``tlac train`` without ``--force``) a finished run or a folder holding
+    anything else is refused (:func:`check_out_folder`). The folder is locked while the run
+    writes it. ``on_eval(timestep, student_alone_mean, training_return)`` is called after
+    every evaluation of the student alone (``training_return``: mean of the recent training
+    episodes, teachers included, or ``None`` before the first episode ends)."""
     domain = spec.validate()
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    _clear_run_folder(out)
     hp = hyperparameters(spec)
+    check = getattr(get_algorithm(spec.algo), "check_hyperparameters", None)
+    if check is not None:  # optional in the algorithm contract (docs/architecture.md)
+        check(hp)
+    out = Path(out_dir)
+    check_out_folder(out, spec, domain, replace)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        lock = FileLock(str(out / LOCK_FILE))
+        lock.acquire(timeout=0)
+    except Timeout:
+        raise ConfigError(f"--out {str(out)!r} is in use by another tlac process") from None
+    except OSError as exc:
+        raise ConfigError(f"cannot write the run folder {str(out)!r}: {exc.strerror}") from None
+    try:
+        return _train_locked(spec, out, domain, hp, progress_bar, on_eval)
+    finally:
+        lock.release()
+
+
+def _train_locked(
+    spec: RunSpec, out: Path, domain: Domain, hp: dict[str, Any], progress_bar: bool, on_eval: Any
+) -> dict[str, Any]:
+    _clear_run_folder(out)
     n_envs = int(hp.pop("n_envs", 1))
 
     # small networks: one thread is fastest, and parallel runs must not oversubscribe cores

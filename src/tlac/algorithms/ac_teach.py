@@ -332,6 +332,11 @@ class ACTeach:
     """AC-Teach: DDPG (or, for Discrete actions, a Q-learning adaptation) with a Bayesian
     critic and Thompson sampling with commitment over the learner and the teachers."""
 
+    @classmethod
+    def check_hyperparameters(cls, hyperparameters: dict[str, Any]) -> ACTeachConfig:
+        """The validated settings; a bad one raises ConfigError naming it."""
+        return config_from_kwargs(ACTeachConfig, "ac-teach", hyperparameters)
+
     def __init__(
         self,
         env: VecEnv | None,
@@ -340,7 +345,7 @@ class ACTeach:
         recorder: Recorder | None = None,
         **hyperparameters: Any,
     ):
-        self.config = config_from_kwargs(ACTeachConfig, "ac-teach", hyperparameters)
+        self.config = self.check_hyperparameters(hyperparameters)
         self.teachers = list(teachers or [])
         self.seed, self.recorder, self.env = seed, recorder, env
         self.num_timesteps = 0

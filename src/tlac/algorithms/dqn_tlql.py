@@ -133,6 +133,11 @@ class DQNTLQLConfig:
 class DQNTLQL:
     """DQN Two-Level Q-learning over ``teachers + [agent]`` (see the module docstring)."""
 
+    @classmethod
+    def check_hyperparameters(cls, hyperparameters: dict[str, Any]) -> DQNTLQLConfig:
+        """The validated settings; a bad one raises ConfigError naming it."""
+        return config_from_kwargs(DQNTLQLConfig, "dqn-tlql", hyperparameters)
+
     def __init__(
         self,
         env: VecEnv | None,
@@ -141,7 +146,7 @@ class DQNTLQL:
         recorder: Recorder | None = None,
         **hyperparameters: Any,
     ):
-        self.config = config_from_kwargs(DQNTLQLConfig, "dqn-tlql", hyperparameters)
+        self.config = self.check_hyperparameters(hyperparameters)
         self.teachers = list(teachers or [])
         self.seed, self.recorder, self.env = seed, recorder, env
         self.num_timesteps = 0

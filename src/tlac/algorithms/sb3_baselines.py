@@ -41,6 +41,7 @@ from stable_baselines3.common.logger import KVWriter, Logger
 from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
 from stable_baselines3.common.vec_env import VecEnv
 
+from tlac.algorithms.common import check_plain_numbers
 from tlac.errors import ConfigError
 from tlac.presets import Schedule, make_schedule
 from tlac.recording import Recorder
@@ -81,6 +82,7 @@ def sb3_kwargs(algo: str, hp: dict[str, Any]) -> dict[str, Any]:
     A scheduled ``target_kl`` is returned under the private key ``_target_kl_schedule``."""
     sb3_cls = _SB3_CLASSES[algo]
     hp = dict(hp)
+    check_plain_numbers(hp, algo)
     policy_kwargs: dict[str, Any] = dict(hp.pop("policy_kwargs", None) or {})
     out: dict[str, Any] = {}
     if "net_arch" in hp:
@@ -111,7 +113,11 @@ def sb3_kwargs(algo: str, hp: dict[str, Any]) -> dict[str, Any]:
         "_init_setup_model",
         "policy_kwargs",
     }
+    parameters = inspect.signature(sb3_cls.__init__).parameters
     for key, value in hp.items():
+        if key in parameters and isinstance(parameters[key].default, bool):
+            if not isinstance(value, bool):
+                raise ConfigError(f"{algo} setting {key} must be true or false, got {value!r}")
         if key not in accepted:
             raise ConfigError(
                 f"unknown {algo} hyperparameter {key!r}; expected one of: "
@@ -207,6 +213,11 @@ class _SB3Baseline:
             "MlpPolicy", env, seed=seed, device="cpu", verbose=0, **kwargs
         )
         self._attach_recorder()
+
+    @classmethod
+    def check_hyperparameters(cls, hyperparameters: dict[str, Any]) -> None:
+        """Raise ConfigError for a bad setting, before anything is built or written."""
+        sb3_kwargs(cls.name, {k: v for k, v in hyperparameters.items() if k != "n_envs"})
 
     def _attach_recorder(self) -> None:
         if self.recorder is not None:

@@ -32,6 +32,7 @@ from torch import nn
 
 from tlac.algorithms import losses
 from tlac.algorithms.common import (
+    check_setting_types,
     checkpoint_path,
     make_progress_bar,
     query_teachers,
@@ -211,6 +212,7 @@ class TLACConfig:
                 raise ConfigError(
                     f"unknown TL-AC setting {key!r}; expected one of: {', '.join(names)}"
                 )
+        check_setting_types(cls, settings, "TL-AC")
         cfg = cls(**settings)
         cfg.validate()
         return cfg
@@ -459,6 +461,11 @@ class TLAC:
             ]
         )
         self._use_entropy = bool(self._ent_coefs.any())
+
+    @classmethod
+    def check_hyperparameters(cls, hyperparameters: dict[str, Any]) -> TLACConfig:
+        """The validated settings (``preset`` aside); a bad one raises ConfigError naming it."""
+        return TLACConfig.from_settings({k: v for k, v in hyperparameters.items() if k != "preset"})
 
     # ----------------------------------------------------------------- the policies
     def _heads(
