@@ -63,6 +63,26 @@ def _weighted_mean(x: torch.Tensor, weights: torch.Tensor | None) -> torch.Tenso
     return (x * weights).sum(dim=1) / weights.sum(dim=1).clamp(min=1.0)
 
 
+TRUST_RULES = ("soft", "max")
+
+
+def teacher_trust(teacher_logits: torch.Tensor, rule: str) -> torch.Tensor:
+    """``(B, K)`` weights of the teachers in each state from the high level's logits of the
+    teachers: ``soft`` = their softmax, ``max`` = 1 for the preferred teacher, 0 elsewhere.
+
+    >>> logits = torch.tensor([[0.0, 1.0], [2.0, 2.0]])
+    >>> teacher_trust(logits, "max").tolist()   # a tie goes to the first teacher
+    [[0.0, 1.0], [1.0, 0.0]]
+    >>> [round(v, 3) for v in teacher_trust(logits, "soft")[0].tolist()]
+    [0.269, 0.731]
+    """
+    if rule == "max":
+        return torch.nn.functional.one_hot(
+            teacher_logits.argmax(-1), teacher_logits.shape[-1]
+        ).to(teacher_logits.dtype)
+    return torch.softmax(teacher_logits, -1)
+
+
 def imitation_loss(neg_log_likelihoods: torch.Tensor, trust: torch.Tensor) -> torch.Tensor:
     """The graduate variant's imitation term: ``mean_s sum_k trust[s, k] * nll[k, s]``.
 

@@ -161,6 +161,10 @@ class TLACConfig:
     min(1, solo_budget / (1 - competence)), competence measured from recent solo and assisted
     returns (tlac.algorithms.graduation), so solo play costs the training return about
     solo_budget of the teachers' margin. None: the variant's (graduate 0.05, paper 0)."""
+    trust: str = "soft"
+    """How the imitation term weighs the teachers in a state: soft (the high level's
+    probabilities among the teachers) or max (the teacher the high level prefers there, alone:
+    DAgger's relabelling with the preferred teacher; a candidate, docs/graduation.md)."""
     solo_critic: bool = True
     """Whether the shared critic also learns from solo episodes. False: it fits the returns of
     assisted episodes only, the behaviour the high level's advantages are about (a candidate,
@@ -256,6 +260,8 @@ class TLACConfig:
             raise UnknownNameError("kl_rows", self.kl_rows, ["agent", "all", "high"])
         if self.obs_encoding not in ENCODINGS:
             raise UnknownNameError("obs_encoding", self.obs_encoding, list(ENCODINGS))
+        if self.trust not in losses.TRUST_RULES:
+            raise UnknownNameError("trust", self.trust, list(losses.TRUST_RULES))
         if self.low_level_data not in ("all", "agent"):
             raise UnknownNameError("low_level_data", self.low_level_data, ["all", "agent"])
         if self.selector not in ("learned", "random", "ucb1"):
@@ -566,7 +572,7 @@ class TLAC:
     ) -> torch.Tensor:
         """DAgger on replayed states: each teacher's advice weighted by the high level's trust
         in that teacher (softmax over the teachers' logits only, no gradient)."""
-        trust = torch.softmax(high_logits.detach()[:, : self.n_teachers], -1)
+        trust = losses.teacher_trust(high_logits.detach()[:, : self.n_teachers], self.config.trust)
         return losses.imitation_loss(self._advice_nll(low_out, latent, advice), trust)
 
     def _mean_entropies(
