@@ -3,6 +3,8 @@ determinism, teacher validation, and a learning test with a reward threshold."""
 
 from __future__ import annotations
 
+import re
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -305,3 +307,28 @@ def test_smoke_on_the_continuous_domains_with_their_presets(env, teachers):
     actions, _ = model.predict(obs)
     assert actions.shape == (preset["n_envs"], *model.action_space.shape)
     assert np.all(np.abs(actions) <= 1.0)
+
+
+def test_predict_takes_one_observation_or_a_batch_and_nothing_else():
+    model = TLAC("doorkey", teachers=["optimal"], seed=0)
+    obs = model.env.reset()
+    assert np.ndim(model.predict(obs[0])[0]) == 0
+    assert model.predict(obs)[0].shape == (1,)
+    assert model.predict(np.repeat(obs, 3, axis=0))[0].shape == (3,)
+    for bad, fragment in [
+        (np.zeros(294), "got shape (294,)"),
+        (np.zeros((2, 3)), "got shape (2, 3)"),
+        ("abc", "numeric observations"),
+        (np.full(147, np.nan), "NaN or infinite"),
+    ]:
+        with pytest.raises(ConfigError, match=re.escape(fragment)):
+            model.predict(bad)
+
+
+def test_a_diverging_run_stops_with_a_training_error_and_takes_no_nan_step():
+    from tlac.errors import TrainingError
+
+    model = TLAC("doorkey", teachers=["optimal"], seed=0, learning_rate=1.0e30)
+    with pytest.raises(TrainingError, match="non-finite gradient norm"):
+        model.learn(2000, progress_bar=False)
+    assert all(torch.isfinite(p).all() for p in model.net.parameters())

@@ -22,5 +22,9 @@ class UnknownNameError(ConfigError):
         super().__init__(f"unknown {kind} {name!r}; expected one of: {', '.join(self.accepted)}")
 
 
+class TrainingError(TlacError):
+    """Training diverged (a non-finite loss or gradient); the run stops and is not finished."""
+
+
 class TeacherError(TlacError):
     """A teacher returned an action that is not a valid member of the action space."""

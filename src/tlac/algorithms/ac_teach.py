@@ -48,6 +48,7 @@ from stable_baselines3.common.vec_env import VecEnv
 from torch import nn
 
 from tlac.algorithms.common import (
+    check_observations,
     checkpoint_path,
     config_from_kwargs,
     flat_obs,
@@ -56,6 +57,7 @@ from tlac.algorithms.common import (
     polyak_update,
     real_next_obs,
     safe_torch_load,
+    stop_if_not_finite,
 )
 from tlac.errors import ConfigError
 from tlac.recording import Recorder
@@ -592,6 +594,9 @@ class ACTeach:
         )
         self.critic_opt.zero_grad()
         critic_loss.backward()
+        stop_if_not_finite(critic_loss.detach(), "ac-teach", self.num_timesteps, "critic loss")
+        if self.actor is not None:
+            stop_if_not_finite(actor_loss.detach(), "ac-teach", self.num_timesteps, "actor loss")
         self.critic_opt.step()
         if self.actor is not None:
             self.actor_opt.step()
@@ -694,12 +699,15 @@ class ACTeach:
     def predict(self, obs: np.ndarray, deterministic: bool = True) -> tuple[np.ndarray, None]:
         """The student alone: the actor's action (continuous) or the critic's greedy action
         (discrete), without teachers or exploration noise."""
-        x = self._clip_obs(torch.as_tensor(flat_obs(obs, len(obs))))
+        batch, single = check_observations(obs, self.observation_space)
+        x = self._clip_obs(torch.as_tensor(flat_obs(batch, len(batch))))
         with torch.no_grad():
             if self.discrete:
-                return self.critic(x).argmax(dim=1).numpy(), None
-            assert self.actor is not None
-            return self._to_env(self.actor(x).numpy()), None
+                actions = self.critic(x).argmax(dim=1).numpy()
+            else:
+                assert self.actor is not None
+                actions = self._to_env(self.actor(x).numpy())
+        return (actions[0] if single else actions), None
 
     def save(self, path: str | Path) -> None:
         """``torch.save`` of networks, optimizers, settings and step count to ``path.pt``

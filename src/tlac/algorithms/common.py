@@ -275,3 +275,53 @@ def check_plain_numbers(values: dict[str, Any], algo: str) -> None:
                 _check_number(algo, name, point, integer=False)
         elif isinstance(value, int | float) and not isinstance(value, bool):
             _check_number(algo, name, value, integer=False)
+
+
+def check_observations(obs: Any, space: gym.Space) -> tuple[np.ndarray, bool]:
+    """``(batch, single)``: ``obs`` as a batch ``(n, *space.shape)`` and whether it was one
+    observation. Anything else (a wrong shape, text, NaN or infinite values) raises
+    :class:`ConfigError` saying what was expected.
+
+    >>> box = gym.spaces.Box(0.0, 1.0, (2,))
+    >>> check_observations([0.5, 0.5], box)[0].shape, check_observations(np.zeros((3, 2)), box)[1]
+    ((1, 2), False)
+    >>> check_observations(np.zeros(4), box)
+    Traceback (most recent call last):
+    tlac.errors.ConfigError: predict: expected one observation of shape (2,) or a batch (n, 2), got shape (4,)
+    """
+    try:
+        array = np.asarray(obs)  # the caller's dtype is kept: teachers get what they expect
+    except (TypeError, ValueError):  # ragged nested lists
+        array = np.asarray([object()])
+    if array.dtype.kind not in "biuf":
+        raise ConfigError(
+            f"predict: expected numeric observations of shape {space.shape}, got {type(obs).__name__}"
+        )
+    shape = tuple(space.shape or ())
+    if array.shape == shape:
+        single, array = True, array[None]
+    elif array.ndim == len(shape) + 1 and array.shape[1:] == shape and len(array) > 0:
+        single = False
+    else:
+        batch = f"({', '.join(['n', *map(str, shape)])})"
+        raise ConfigError(
+            f"predict: expected one observation of shape {shape} or a batch {batch}, "
+            f"got shape {array.shape}"
+        )
+    if array.dtype.kind == "f" and not np.isfinite(array).all():
+        raise ConfigError("predict: the observations contain NaN or infinite values")
+    return array, single
+
+
+def stop_if_not_finite(value: torch.Tensor, algo: str, step: int, what: str = "loss") -> None:
+    """Raise :class:`TrainingError` when ``value`` (a loss or a gradient norm) is NaN or
+    infinite: the update is not applied, the run stops, and nothing is marked finished."""
+    if not bool(torch.isfinite(value).all()):
+        from tlac.errors import TrainingError
+
+        flat = value.detach().reshape(-1)
+        bad = float(flat[~torch.isfinite(flat)][0])
+        raise TrainingError(
+            f"{algo}: non-finite {what} ({bad}) at step {step}; "
+            "training stopped (a learning rate too high, or NaN in observations or rewards?)"
+        )

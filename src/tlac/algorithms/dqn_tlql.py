@@ -41,6 +41,7 @@ from stable_baselines3.common.vec_env import VecEnv
 from torch import nn
 
 from tlac.algorithms.common import (
+    check_observations,
     checkpoint_path,
     config_from_kwargs,
     flat_obs,
@@ -51,6 +52,7 @@ from tlac.algorithms.common import (
     query_teachers,
     real_next_obs,
     safe_torch_load,
+    stop_if_not_finite,
     td_targets,
 )
 from tlac.errors import ConfigError
@@ -256,7 +258,8 @@ class DQNTLQL:
                 loss = self._q_loss(net, target, batch["obs"], batch[key], batch)
                 opt.zero_grad()
                 loss.backward()
-                nn.utils.clip_grad_norm_(net.parameters(), cfg.max_grad_norm)
+                norm = nn.utils.clip_grad_norm_(net.parameters(), cfg.max_grad_norm)
+                stop_if_not_finite(norm, "dqn-tlql", self.num_timesteps, "gradient norm")
                 opt.step()
                 out.append(float(loss.detach()))
         return {
@@ -339,10 +342,13 @@ class DQNTLQL:
 
     # ---- inference and persistence
     def predict(self, obs: np.ndarray, deterministic: bool = True) -> tuple[np.ndarray, None]:
-        """The student alone: ``argmax_a Q_L(s, a)`` (no teacher, no exploration)."""
-        x = torch.as_tensor(flat_obs(obs, len(obs)))
+        """The student alone: ``argmax_a Q_L(s, a)`` (no teacher, no exploration); one
+        observation gives one action, a batch gives one per row."""
+        batch, single = check_observations(obs, self.observation_space)
+        x = torch.as_tensor(flat_obs(batch, len(batch)))
         with torch.no_grad():
-            return self.q_low(x).argmax(dim=1).numpy(), None
+            actions = self.q_low(x).argmax(dim=1).numpy()
+        return (actions[0] if single else actions), None
 
     def save(self, path: str | Path) -> None:
         """``torch.save`` of the networks, optimizers, settings and step count to ``path.pt``

@@ -77,9 +77,9 @@ def teacher_trust(teacher_logits: torch.Tensor, rule: str) -> torch.Tensor:
     [0.269, 0.731]
     """
     if rule == "max":
-        return torch.nn.functional.one_hot(
-            teacher_logits.argmax(-1), teacher_logits.shape[-1]
-        ).to(teacher_logits.dtype)
+        return torch.nn.functional.one_hot(teacher_logits.argmax(-1), teacher_logits.shape[-1]).to(
+            teacher_logits.dtype
+        )
     return torch.softmax(teacher_logits, -1)
 
 

@@ -41,7 +41,7 @@ from stable_baselines3.common.logger import KVWriter, Logger
 from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
 from stable_baselines3.common.vec_env import VecEnv
 
-from tlac.algorithms.common import check_plain_numbers
+from tlac.algorithms.common import check_plain_numbers, stop_if_not_finite
 from tlac.errors import ConfigError
 from tlac.presets import Schedule, make_schedule
 from tlac.recording import Recorder
@@ -180,6 +180,9 @@ class _ContractCallback(BaseCallback):
         return not self._stop
 
     def _on_rollout_end(self) -> None:
+        # the previous update's result: a diverged policy stops the run, never "finished"
+        for param in self.model.policy.parameters():
+            stop_if_not_finite(param.data, self.owner.name, self.model.num_timesteps, "parameter")
         self._set_target_kl()  # the update that follows uses this rollout's progress
         if self.user_callback is not None and self.user_callback(self.owner) is False:
             self._stop = True

@@ -32,6 +32,7 @@ from torch import nn
 
 from tlac.algorithms import losses
 from tlac.algorithms.common import (
+    check_observations,
     check_setting_types,
     checkpoint_path,
     make_progress_bar,
@@ -40,6 +41,7 @@ from tlac.algorithms.common import (
     space_from_data,
     space_to_data,
     spaces_match,
+    stop_if_not_finite,
 )
 from tlac.algorithms.encoding import ENCODINGS, make_encoder
 from tlac.algorithms.graduation import AdviceBuffer, SoloEpisodes
@@ -630,9 +632,9 @@ class TLAC:
         episode_start: Any = None,
         deterministic: bool = True,
     ) -> tuple[np.ndarray, None]:
-        """Actions of the low-level policy alone (no teacher), SB3-style ``(actions, None)``."""
-        obs = np.asarray(obs)
-        single = obs.shape == self.observation_space.shape
+        """Actions of the low-level policy alone (no teacher), SB3-style ``(actions, None)``:
+        one observation gives one action, a batch ``(n, *obs_shape)`` gives ``n`` actions."""
+        obs, single = check_observations(obs, self.observation_space)
         _, low_out, _, latent = self._act_heads(obs)
         if self.discrete:
             actions = (
@@ -651,7 +653,7 @@ class TLAC:
         With ``deterministic`` the high level and the agent take their most likely choice."""
         if not self.teachers:
             return self.predict(obs, deterministic=deterministic)[0]
-        obs = np.asarray(obs).reshape(-1, *self.observation_space.shape)
+        obs = check_observations(obs, self.observation_space)[0]
         high_logits, low_out, _, latent = self._act_heads(obs)
         if self.selector.name == "ucb1":  # the best arm by mean return so far
             counts = np.maximum(self.selector.counts, 1)
@@ -862,7 +864,8 @@ class TLAC:
     def _gradient_step(self, loss: torch.Tensor) -> None:
         self.optimizer.zero_grad(set_to_none=True)
         loss.backward()
-        nn.utils.clip_grad_norm_(self.params, self.config.max_grad_norm, foreach=True)
+        norm = nn.utils.clip_grad_norm_(self.params, self.config.max_grad_norm, foreach=True)
+        stop_if_not_finite(norm, "TL-AC", self.num_timesteps, "gradient norm")
         self.optimizer.step()
 
     def _replayed_imitation(self) -> torch.Tensor:
