@@ -69,6 +69,10 @@ def _cmd_train(args: argparse.Namespace) -> int:
         if args.teachers is None
         else [t.strip() for t in args.teachers.split(",") if t.strip()]
     )
+    if teachers == [] and args.teachers is not None:
+        raise ConfigError(
+            f"--teachers {args.teachers!r} names no teacher; expected comma-separated names"
+        )
     if args.algo in NO_ADVICE and teachers:
         raise ConfigError(f"--algo {args.algo} learns without advice; drop --teachers")
     spec = RunSpec(

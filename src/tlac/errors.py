@@ -28,3 +28,30 @@ class TrainingError(TlacError):
 
 class TeacherError(TlacError):
     """A teacher returned an action that is not a valid member of the action space."""
+
+
+def yaml_problem(exc: Exception) -> str:
+    """A YAML parse error as one short line: ``line 3: expected ',' or '}'``."""
+    problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+    mark = getattr(exc, "problem_mark", None)
+    return f"line {mark.line + 1}: {problem}" if mark is not None else str(problem)
+
+
+def read_yaml_file(path: object, what: str) -> object:
+    """Parse the YAML file ``path``; a missing, unreadable or malformed file is one
+    :class:`ConfigError` naming the file."""
+    from pathlib import Path
+
+    import yaml
+
+    p = Path(str(path))
+    try:
+        text = p.read_text()
+    except FileNotFoundError:
+        raise ConfigError(f"{what} {str(p)!r} does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read {what} {str(p)!r}: {exc}") from None
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{str(p)!r}: not valid YAML ({yaml_problem(exc)})") from None

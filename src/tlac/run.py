@@ -27,7 +27,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 
 from tlac.algorithms import NO_ADVICE, get_algorithm
 from tlac.envs import Domain, get_domain, make_teachers, parse_teacher_spec
-from tlac.errors import ConfigError, UnknownNameError
+from tlac.errors import ConfigError, UnknownNameError, read_yaml_file
 from tlac.evaluation import evaluate_student
 from tlac.presets import load_preset
 from tlac.recording import EpisodeRecorder, Recorder
@@ -116,6 +116,11 @@ class RunSpec:
 def hyperparameters(spec: RunSpec) -> dict[str, Any]:
     """The preset's settings for ``spec.algo`` with ``spec.overrides`` applied."""
     hp = load_preset(spec.resolved_preset(), spec.algo)
+    if "selector" in spec.overrides:
+        raise ConfigError(
+            "the high level is chosen with --selector (or an algorithm's 'selector' in an "
+            "experiment file), not with --set selector=..."
+        )
     hp.update(spec.overrides)
     if spec.algo == "tlac":
         hp["selector"] = spec.selector
@@ -310,4 +315,7 @@ def load_run_config(run_dir: str | Path) -> dict[str, Any]:
     cfg = path / "config.yaml"
     if not cfg.exists():
         raise ConfigError(f"{str(path)!r} is not a run folder: config.yaml is missing")
-    return yaml.safe_load(cfg.read_text())
+    data = read_yaml_file(cfg, "run config")
+    if not isinstance(data, dict) or not {"env", "algo"} <= set(data):
+        raise ConfigError(f"{str(cfg)!r} is not a run's config.yaml (no env / algo)")
+    return data

@@ -49,6 +49,7 @@ from torch import nn
 
 from tlac.algorithms.common import (
     check_observations,
+    check_seed,
     checkpoint_path,
     config_from_kwargs,
     flat_obs,
@@ -61,7 +62,7 @@ from tlac.algorithms.common import (
 )
 from tlac.errors import ConfigError
 from tlac.recording import Recorder
-from tlac.teachers.base import check_actions
+from tlac.teachers.base import ask_teacher
 
 ContractCallback = Callable[[Any], "bool | None"]
 SWITCH_SIGNS = ("paper", "code")
@@ -348,6 +349,7 @@ class ACTeach:
         **hyperparameters: Any,
     ):
         self.config = self.check_hyperparameters(hyperparameters)
+        seed = check_seed(seed)
         self.teachers = list(teachers or [])
         self.seed, self.recorder, self.env = seed, recorder, env
         self.num_timesteps = 0
@@ -451,7 +453,7 @@ class ACTeach:
         else:
             out = np.zeros((n, self.n_teachers, self.action_dim), np.float32)
         for k, t in enumerate(self.teachers):
-            a = check_actions(t.name, t.predict(obs), self.action_space, n)
+            a = ask_teacher(t, obs, self.action_space)
             out[:, k] = a if self.discrete else self._to_unit(a)
         return out
 

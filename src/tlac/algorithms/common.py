@@ -14,7 +14,7 @@ import torch
 from torch import nn
 
 from tlac.errors import ConfigError
-from tlac.teachers.base import check_actions
+from tlac.teachers.base import ask_teacher
 
 C = TypeVar("C")
 
@@ -123,7 +123,7 @@ def query_teachers(
             continue  # the agent's own action stays
         rows = np.flatnonzero(choices == k)
         teacher = teachers[k]
-        out[rows] = check_actions(teacher.name, teacher.predict(obs[rows]), action_space, len(rows))
+        out[rows] = ask_teacher(teacher, obs[rows], action_space)
 
 
 def space_to_data(space: gym.Space) -> dict[str, Any]:
@@ -325,3 +325,14 @@ def stop_if_not_finite(value: torch.Tensor, algo: str, step: int, what: str = "l
             f"{algo}: non-finite {what} ({bad}) at step {step}; "
             "training stopped (a learning rate too high, or NaN in observations or rewards?)"
         )
+
+
+def check_seed(seed: Any) -> int:
+    """A seed is a non-negative integer (NumPy and PyTorch both accept it); else ConfigError.
+
+    >>> check_seed(3)
+    3
+    """
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise ConfigError(f"seed must be a non-negative integer, got {seed!r}")
+    return int(seed)

@@ -42,6 +42,7 @@ from torch import nn
 
 from tlac.algorithms.common import (
     check_observations,
+    check_seed,
     checkpoint_path,
     config_from_kwargs,
     flat_obs,
@@ -149,6 +150,7 @@ class DQNTLQL:
         **hyperparameters: Any,
     ):
         self.config = self.check_hyperparameters(hyperparameters)
+        seed = check_seed(seed)
         self.teachers = list(teachers or [])
         self.seed, self.recorder, self.env = seed, recorder, env
         self.num_timesteps = 0

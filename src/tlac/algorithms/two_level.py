@@ -33,6 +33,7 @@ from torch import nn
 from tlac.algorithms import losses
 from tlac.algorithms.common import (
     check_observations,
+    check_seed,
     check_setting_types,
     checkpoint_path,
     make_progress_bar,
@@ -347,7 +348,7 @@ class TLAC:
             base = {} if preset is None else load_preset(preset, "tlac")
         settings = {**base, **settings}
         self.config = TLACConfig.from_settings(settings)
-        self.seed = seed
+        self.seed = seed = check_seed(seed)
         torch.manual_seed(seed)
         self.env, domain = _as_vec_env(env, self.config.n_envs, seed)
         self.n_envs = self.env.num_envs

@@ -83,10 +83,10 @@ def parse_teacher_spec(domain: Domain, spec: str) -> tuple[str, float | None]:
     """``"good"`` -> ``("good", None)``; ``"optimal:0.7"`` -> ``("optimal", 0.7)``: the named
     teacher's action with probability 0.7, a uniformly random action otherwise (the paper's
     good / noisy construction, appendix A.1.1, with any probability)."""
-    name, _, prob_text = spec.partition(":")
+    name, colon, prob_text = spec.partition(":")
     if name not in domain.teacher_names:
         raise UnknownNameError(f"teacher for {domain.name}", name, domain.teacher_names)
-    if not prob_text:
+    if not colon:
         return name, None
     try:
         prob = float(prob_text)
@@ -94,7 +94,7 @@ def parse_teacher_spec(domain: Domain, spec: str) -> tuple[str, float | None]:
         raise ConfigError(
             f"teacher {spec!r}: {prob_text!r} is not a probability in [0, 1]"
         ) from None
-    if not 0.0 <= prob <= 1.0:
+    if not 0.0 <= prob <= 1.0:  # NaN fails this too
         raise ConfigError(f"teacher {spec!r}: probability {prob} is outside [0, 1]")
     return name, prob
 

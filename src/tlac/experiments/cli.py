@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from tlac.argtypes import positive_int
 from tlac.errors import TlacError
 
 
@@ -79,7 +80,7 @@ def register(subparsers: Any) -> None:
     run.add_argument("--out", required=True, metavar="DIR", help="output folder of the grid")
     run.add_argument(
         "--workers",
-        type=int,
+        type=positive_int,
         default=None,
         metavar="N",
         help="parallel runs (local: processes, default 1; ray: runs in flight, "

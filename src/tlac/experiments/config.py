@@ -30,11 +30,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from tlac.algorithms import NO_ADVICE, algorithm_names
 from tlac.envs import domain_names, get_domain
-from tlac.errors import ConfigError, TlacError
+from tlac.errors import ConfigError, TlacError, read_yaml_file
 from tlac.presets import load_preset, preset_names
 from tlac.run import SELECTORS
 
@@ -434,8 +432,4 @@ def load_config(path: str | Path) -> ExperimentConfig:
     p = Path(path)
     if not p.is_file():
         raise ConfigError(f"{p}: experiment file not found")
-    try:
-        data = yaml.safe_load(p.read_text())
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{p}: not valid YAML: {exc}") from exc
-    return parse_config(data, str(p))
+    return parse_config(read_yaml_file(p, "experiment file"), str(p))

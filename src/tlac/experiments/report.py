@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from tlac.errors import ConfigError
+from tlac.errors import ConfigError, read_yaml_file
 from tlac.experiments import metrics as M
 from tlac.experiments.config import NO_TEACHERS, ExperimentConfig, parse_config
 from tlac.experiments.grid import ERROR_FILE, GridRun, expand_grid, run_dir, run_status
@@ -51,13 +51,31 @@ class RunData:
     error: str | None
 
 
-def _read_csv(path: Path, columns: list[str]) -> pd.DataFrame:
+def _read_csv(path: Path, columns: list[str], required: bool = False) -> pd.DataFrame:
+    """The CSV at ``path`` (an empty frame when absent or unreadable); with ``required`` (a
+    finished run's files) an unreadable or malformed file is a ConfigError naming it."""
+    df = _try_read_csv(path, columns)
+    if required and df is None:
+        raise ConfigError(
+            f"{str(path)!r} is damaged (expected a CSV with columns {', '.join(columns)}); "
+            "delete its run folder and rerun the grid to redo it"
+        )
+    return pd.DataFrame(columns=columns) if df is None else df
+
+
+def _try_read_csv(path: Path, columns: list[str]) -> pd.DataFrame | None:
     try:
         df = pd.read_csv(path)
-    except (OSError, pd.errors.EmptyDataError, pd.errors.ParserError):
-        return pd.DataFrame(columns=columns)
+    except (OSError, UnicodeDecodeError, pd.errors.EmptyDataError, pd.errors.ParserError):
+        return None
     missing = [c for c in columns if c not in df.columns]
-    return pd.DataFrame(columns=columns) if missing else df
+    if missing:
+        return None
+    try:
+        df[columns[0]] = pd.to_numeric(df[columns[0]])
+    except (ValueError, TypeError):
+        return None
+    return df
 
 
 def load_experiment(out_dir: str | Path) -> tuple[ExperimentConfig, list[RunData], dict[str, Any]]:
@@ -67,7 +85,7 @@ def load_experiment(out_dir: str | Path) -> tuple[ExperimentConfig, list[RunData
     cfg_path = out / EXPERIMENT_FILE
     if not cfg_path.exists():
         raise ConfigError(f"{out}: not an experiment folder ({EXPERIMENT_FILE} is missing)")
-    config = parse_config(yaml.safe_load(cfg_path.read_text()), str(cfg_path))
+    config = parse_config(read_yaml_file(cfg_path, "experiment file"), str(cfg_path))
     runs = []
     for r in expand_grid(config):
         folder = run_dir(out, r)
@@ -81,7 +99,11 @@ def load_experiment(out_dir: str | Path) -> tuple[ExperimentConfig, list[RunData
             RunData(
                 run=r,
                 status=status,
-                episodes=_read_csv(folder / "episodes.csv", ["timestep", "return", "length"]),
+                episodes=_read_csv(
+                    folder / "episodes.csv",
+                    ["timestep", "return", "length"],
+                    required=status == "finished",
+                ),
                 evals=_read_csv(
                     folder / "eval.csv", ["timestep", "mean_return", "std_return", "episodes"]
                 ),

@@ -21,7 +21,6 @@ writes into ``DIR`` (so ``DIR`` need not be on a shared filesystem; see ``docs/e
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import io
 import json
 import os
@@ -40,6 +39,7 @@ from pathlib import Path
 from typing import Any
 
 import yaml
+from filelock import FileLock, Timeout
 
 from tlac.errors import ConfigError
 from tlac.experiments.config import ExperimentConfig
@@ -137,8 +137,21 @@ def prepare_out_dir(config: ExperimentConfig, out_dir: str | Path) -> Path:
 def _grid_session(config: Any, out: Path) -> Iterator[tuple[list[GridRun], GridSummary]]:
     """What every backend does first, holding the folder's lock throughout: create DIR,
     check or write its experiment file, measure the teachers once, and plan the unfinished
-    runs. Yields (runs to do, a summary counting the finished ones as skipped)."""
-    out.mkdir(parents=True, exist_ok=True)
+    runs. Yields (runs to do, a summary counting the finished ones as skipped). Every run's
+    settings are checked before anything is written."""
+    check_grid_settings(config)
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out {str(out)!r} is a file; expected a folder for the grid")
+    is_grid = (out / EXPERIMENT_FILE).exists() or (out / RUNS_DIR).is_dir()
+    if out.is_dir() and any(out.iterdir()) and not is_grid:
+        raise ConfigError(
+            f"--out {str(out)!r} is not empty and holds no {EXPERIMENT_FILE} or {RUNS_DIR}/: "
+            "not a grid folder; give a new or an existing grid folder"
+        )
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"cannot create the grid folder {str(out)!r}: {exc.strerror}") from None
     with dir_lock(out):
         prepare_out_dir(config, out)
         evaluate_teachers(config, out)
@@ -146,18 +159,35 @@ def _grid_session(config: Any, out: Path) -> Iterator[tuple[list[GridRun], GridS
         yield todo, GridSummary(total=len(todo) + skipped, skipped=skipped)
 
 
+def check_grid_settings(config: ExperimentConfig) -> None:
+    """Every run's spec and hyperparameters are valid (the checks ``train_run`` makes first),
+    so that a typo in one algorithm's overrides stops the grid before any run starts."""
+    from tlac.algorithms import get_algorithm
+    from tlac.run import hyperparameters
+
+    for r in expand_grid(config):
+        try:
+            r.spec.validate()
+            check = getattr(get_algorithm(r.spec.algo), "check_hyperparameters", None)
+            if check is not None:
+                check(hyperparameters(r.spec))
+        except ConfigError as exc:
+            raise ConfigError(f"{config.source}: run {r.name}: {exc}") from None
+
+
 @contextlib.contextmanager
 def dir_lock(out: Path) -> Iterator[None]:
-    """An exclusive lock on ``DIR/.lock`` for the driver's lifetime (released even on SIGKILL)."""
-    fd = os.open(out / LOCK_FILE, os.O_CREAT | os.O_RDWR, 0o644)
+    """An exclusive lock on ``DIR/.lock`` for the driver's lifetime (released even on SIGKILL;
+    ``filelock`` works on Linux, macOS and Windows)."""
+    lock = FileLock(str(out / LOCK_FILE))
     try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError as exc:
-            raise ConfigError(f"{out}: another 'tlac experiment run' is using this folder") from exc
+        lock.acquire(timeout=0)
+    except Timeout:
+        raise ConfigError(f"{out}: another 'tlac experiment run' is using this folder") from None
+    try:
         yield
     finally:
-        os.close(fd)
+        lock.release()
 
 
 def evaluate_teachers(config: ExperimentConfig, out: Path) -> dict[str, Any]:

@@ -45,7 +45,14 @@ class FunctionTeacher:
 
     def predict(self, obs: np.ndarray) -> np.ndarray:
         # no cast here: check_actions reports a NaN or an out-of-range value by name
-        return np.asarray([self.fn(o) for o in obs])
+        actions = [self.fn(o) for o in obs]
+        for a in actions:
+            if a is None or np.asarray(a).dtype.kind not in "biuf":
+                raise TeacherError(
+                    f"teacher {self.name!r} returned {a!r:.60} for an observation; expected an "
+                    f"action of {self.action_space}"
+                )
+        return np.asarray(actions)
 
 
 class SB3Teacher:
@@ -108,6 +115,20 @@ def unique_names(names: list[str]) -> list[str]:
             seen[n] = seen.get(n, 0) + 1
             out.append(f"{n}_{seen[n]}")
     return out
+
+
+def ask_teacher(teacher: Any, obs: np.ndarray, action_space: gym.Space) -> np.ndarray:
+    """``teacher``'s checked actions for the batch ``obs``; a teacher that raises is named in
+    a :class:`TeacherError` (with its own message), never a bare library exception."""
+    try:
+        actions = teacher.predict(obs)
+    except TeacherError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - a user's teacher may raise anything
+        raise TeacherError(
+            f"teacher {teacher.name!r} raised {type(exc).__name__}: {str(exc)[:200]}"
+        ) from exc
+    return check_actions(teacher.name, actions, action_space, len(obs))
 
 
 def check_actions(teacher_name: str, actions: Any, action_space: gym.Space, n: int) -> np.ndarray:
