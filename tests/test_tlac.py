@@ -332,3 +332,19 @@ def test_a_diverging_run_stops_with_a_training_error_and_takes_no_nan_step():
     with pytest.raises(TrainingError, match="non-finite gradient norm"):
         model.learn(2000, progress_bar=False)
     assert all(torch.isfinite(p).all() for p in model.net.parameters())
+
+
+def test_tlac_learns_on_a_subprocvecenv_with_two_processes():
+    from stable_baselines3.common.vec_env import SubprocVecEnv
+
+    from tlac.envs import get_domain
+
+    domain = get_domain("doorkey")
+    env = SubprocVecEnv([domain.make_env, domain.make_env])
+    try:
+        model = TLAC(env, teachers=[lambda obs: 2], seed=0, n_steps=8, batch_size=16)
+        # 1,100 steps: each env passes DoorKey's 490-step limit, so episodes end (infos: a tuple)
+        model.learn(1100, progress_bar=False)
+        assert model.num_timesteps >= 1100 and model.env.episodes_done >= 2
+    finally:
+        env.close()

@@ -47,6 +47,7 @@ class EpisodeRecorder(VecEnvWrapper):
 
     def step_wait(self) -> Any:
         obs, rewards, dones, infos = self.venv.step_wait()
+        infos = list(infos)  # SubprocVecEnv returns a tuple
         self.num_timesteps += self.num_envs
         self._returns += rewards
         self._lengths += 1
