@@ -192,7 +192,15 @@ def safe_torch_load(path: Path, what: str) -> Any:
 
 
 POSITIVE_SETTINGS = frozenset(
-    {"learning_rate", "actor_lr", "critic_lr", "clip_range", "target_kl", "optimizer_eps"}
+    {
+        "learning_rate",
+        "actor_lr",
+        "critic_lr",
+        "clip_range",
+        "target_kl",
+        "optimizer_eps",
+        "ent_cap_high",
+    }
 )
 """Settings that must be > 0 wherever they appear (a number, or a schedule's end points)."""
 

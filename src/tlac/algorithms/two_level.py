@@ -117,6 +117,10 @@ class TLACConfig:
     """None: ent_coef."""
     ent_coef_low: float | None = None
     """None: ent_coef."""
+    ent_cap_high: float | None = None
+    """With a high-level entropy bonus: each state's entropy counts only up to this many nats,
+    so the bonus keeps the high level from collapsing without pushing it towards uniform
+    choices (None: no cap; a candidate, docs/graduation.md)."""
     vf_coef: float = 0.5
     max_grad_norm: float = 0.5
     gamma: float = 0.99
@@ -579,16 +583,24 @@ class TLAC:
         return losses.imitation_loss(self._advice_nll(low_out, latent, advice), trust)
 
     def _mean_entropies(
-        self, high_logits: torch.Tensor, low_out: torch.Tensor, latent: torch.Tensor
+        self,
+        high_logits: torch.Tensor,
+        low_out: torch.Tensor,
+        latent: torch.Tensor,
+        cap_high: float | None = None,
     ) -> torch.Tensor:
-        """Mean entropy of each trained level: ``[H_low]`` or ``[H_low, H_high]``."""
+        """Mean entropy of each trained level: ``[H_low]`` or ``[H_low, H_high]``; with
+        ``cap_high``, each state's high-level entropy counts up to that value only."""
         if self.discrete:
             low = categorical_entropy(torch.log_softmax(low_out, -1)).mean()
         else:
             low = gaussian_entropy(self._low_log_std(latent)).mean()
         if not self.train_high:
             return low[None]
-        return torch.stack([low, categorical_entropy(torch.log_softmax(high_logits, -1)).mean()])
+        high = categorical_entropy(torch.log_softmax(high_logits, -1))
+        if cap_high is not None:
+            high = high.clamp(max=cap_high)
+        return torch.stack([low, high.mean()])
 
     def _np_low_log_prob(
         self, low_out: np.ndarray, latent: np.ndarray, actions: np.ndarray
@@ -824,7 +836,7 @@ class TLAC:
                     loss = loss + distill * imitation
                     imitation_stats.append(imitation.detach())
                 if self._use_entropy:  # skipped when both coefficients are 0 (Table 5)
-                    entropies = self._mean_entropies(high_logits, low_out, latent)
+                    entropies = self._mean_entropies(high_logits, low_out, latent, cfg.ent_cap_high)
                     loss = loss - (self._ent_coefs[: len(entropies)] * entropies).sum()
                 kl = float(kls.max())
                 stats.append(torch.cat([policy_losses.detach(), vf_loss.detach()[None], kls]))
