@@ -61,6 +61,14 @@ from tlac.algorithms.nets import (
     np_sample_categorical,
 )
 from tlac.algorithms.optim import RMSpropTFLikeForeach
+from tlac.algorithms.resume import (
+    attributes_state,
+    generator_states,
+    restore_attributes,
+    restore_generator_states,
+    restore_vec_env,
+    vec_env_state,
+)
 from tlac.algorithms.rollout import Rollout, compute_gae
 from tlac.errors import ConfigError, UnknownNameError
 from tlac.presets import load_preset, make_schedule, validate_schedule
@@ -971,8 +979,13 @@ class TLAC:
         return " | ".join(parts)
 
     # ----------------------------------------------------------------- persistence
-    def save(self, path: str | Path) -> Path:
-        """Save the networks, optimizer and settings (never the teachers) to ``path`` (.pt)."""
+    def save(self, path: str | Path, training_state: bool = False) -> Path:
+        """Save the networks, optimizer and settings (never the teachers) to ``path`` (.pt).
+
+        ``training_state``: also everything that training needs to continue exactly as if it
+        had never stopped (random-number generators, the teachers' generators, the advice
+        buffer, the solo statistics and the environments with their episodes in progress);
+        ``load(..., resume=True)`` restores it. Such a file is larger (the advice buffer)."""
         path = checkpoint_path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         state = {
@@ -987,15 +1000,84 @@ class TLAC:
             "log_std": None if self.log_std is None else self.log_std.detach().clone(),
             "optimizer": self.optimizer.state_dict(),
         }
+        if training_state:
+            state["training"] = self._training_state()
         tmp = path.with_name(path.name + ".tmp")
         torch.save(state, tmp)
         tmp.replace(path)
         return path
 
+    def _training_state(self) -> dict[str, Any]:
+        """What :meth:`save` writes with ``training_state=True`` (plain data and tensors)."""
+        buf = self.advice_buffer
+
+        def tensor(a: np.ndarray | None) -> torch.Tensor | None:
+            return None if a is None else torch.from_numpy(np.array(a))
+
+        return {
+            "rng": self.rng.bit_generator.state,
+            "generator": self.generator.get_state(),
+            "replay_generator": self._replay_generator.get_state(),
+            "selector": attributes_state(self.selector),
+            "solo": None if self.solo is None else attributes_state(self.solo),
+            "advice": None
+            if buf is None
+            else {
+                "obs": buf.obs[: buf.size].clone(),
+                "advice": buf.advice[: buf.size].clone(),
+                "next": buf.next,
+                "size": buf.size,
+            },
+            "last_obs": tensor(self._last_obs),
+            "episode_starts": tensor(getattr(self, "_episode_starts", None)),
+            "episode_returns": tensor(getattr(self, "_episode_returns", None)),
+            "sde_noise": tensor(self._sde_noise),
+            "teachers": [generator_states(t) for t in self.teachers],
+            "env": vec_env_state(self.env),
+        }
+
+    def _load_training_state(self, state: dict[str, Any]) -> None:
+        """Restore what :meth:`_training_state` saved (see :mod:`tlac.algorithms.resume`)."""
+        self.rng.bit_generator.state = state["rng"]
+        self.generator.set_state(state["generator"])
+        self._replay_generator.set_state(state["replay_generator"])
+        restore_attributes(self.selector, state["selector"])
+        if (state["solo"] is None) != (self.solo is None):
+            raise ConfigError("the checkpoint's solo-episode statistics do not match the settings")
+        if self.solo is not None:
+            restore_attributes(self.solo, state["solo"])
+        if state["advice"] is not None and self.advice_buffer is not None:
+            buf, saved = self.advice_buffer, state["advice"]
+            buf.obs[: saved["size"]] = saved["obs"]
+            buf.advice[: saved["size"]] = saved["advice"]
+            buf.next, buf.size = saved["next"], saved["size"]
+        for name in ("last_obs", "episode_starts", "episode_returns", "sde_noise"):
+            value = state[name]
+            setattr(self, f"_{name}", None if value is None else value.numpy().copy())
+        if len(state["teachers"]) != len(self.teachers):
+            raise ConfigError(
+                f"the checkpoint was saved with {len(state['teachers'])} teachers, "
+                f"got {len(self.teachers)}"
+            )
+        for teacher, states in zip(self.teachers, state["teachers"], strict=True):
+            restore_generator_states(teacher, states)
+        restore_vec_env(self.env, state["env"])
+
     @classmethod
-    def load(cls, path: str | Path, env: Any = None, teachers: Sequence[Any] | None = None) -> TLAC:
+    def load(
+        cls,
+        path: str | Path,
+        env: Any = None,
+        teachers: Sequence[Any] | None = None,
+        resume: bool = False,
+    ) -> TLAC:
         """Load a saved model. Pass ``env`` (and, to train on with advice, the same number of
-        ``teachers`` as at save time) to continue training; ``predict`` needs neither."""
+        ``teachers`` as at save time) to continue training; ``predict`` needs neither.
+
+        ``resume``: restore the training state of a file saved with ``training_state=True``
+        (needs ``env`` and the same ``teachers``), so that ``learn`` continues exactly where
+        the saved model stopped. This unpickles the saved environments: resume your own
+        checkpoints only. Without ``resume`` loading runs no code from the file."""
         path = Path(path)
         if not path.exists() and path.with_name(path.name + ".pt").exists():
             path = path.with_name(path.name + ".pt")
@@ -1045,4 +1127,12 @@ class TLAC:
             with torch.no_grad():
                 model.log_std.copy_(state["log_std"])
         model.optimizer.load_state_dict(state["optimizer"])
+        if resume:
+            if "training" not in state:
+                raise ConfigError(
+                    f"{str(path)!r} holds no training state; save it with training_state=True"
+                )
+            if model.env is None:
+                raise ConfigError("resume=True needs env (the environments are restored into it)")
+            model._load_training_state(state["training"])
         return model
