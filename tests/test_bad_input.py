@@ -250,6 +250,12 @@ CLI_CASES += [
     ([*T, "--out", "RUN"], "holds a finished run"),
     ([*T, "--out", "GRID"], "is not empty"),
     ([*T, "--out", "BROKEN"], "is not empty"),
+    # tlac train --resume
+    (["train", "--resume", "/no/such/run"], "does not exist"),
+    (["train", "--resume", "RUN"], "is a finished run; nothing to resume"),
+    (["train", "--resume", "BROKEN"], "config.yaml is missing"),
+    (["train", "--resume", "BROKEN/bad_config_run"], "config.yaml"),
+    (["train", "--checkpoint-every", "0"], "--checkpoint-every"),
     # tlac eval
     (["eval", "/no/such/run"], "does not exist"),
     (["eval", "BROKEN"], "config.yaml is missing"),

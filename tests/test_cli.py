@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from tlac.cli import main
+from tlac.errors import TlacError
 
 
 def run_cli(*args: str) -> subprocess.CompletedProcess:
@@ -138,3 +139,44 @@ def test_readme_starts_with_the_two_commands():
     assert any("scripts/demo.sh" in b for b in blocks) and any(
         "scripts/test.sh" in b for b in blocks
     )
+
+
+def test_an_interrupted_run_resumes_exactly(tmp_path):
+    """A TL-AC run stopped after a checkpoint and resumed with `tlac train --resume` ends with
+    the same run files as an uninterrupted run (progress.csv without its wall-clock rows)."""
+    from tlac.run import RunSpec, resume_run, train_run
+
+    spec = RunSpec(
+        env="doorkey",
+        teachers=["optimal", "random"],
+        steps=3024,
+        seed=2,
+        eval_every=1008,
+        eval_episodes=2,
+        log_interval=504,
+    )
+    straight, broken = tmp_path / "straight", tmp_path / "broken"
+    train_run(spec, straight, checkpoint_every=1008)
+
+    class Crash(Exception):
+        pass
+
+    def crash_at_2016(timestep, student, train_return):
+        if timestep >= 2016:
+            raise Crash
+
+    with pytest.raises(Crash):
+        train_run(spec, broken, on_eval=crash_at_2016, checkpoint_every=1008)
+    assert (broken / "checkpoint.json").exists() and not (broken / "result.json").exists()
+    proc = run_cli("train", "--resume", str(broken), "--no-progress", "--checkpoint-every", "1008")
+    assert proc.returncode == 0, proc.stderr
+    for name in ("episodes.csv", "eval.csv", "teacher_usage.csv"):
+        assert (broken / name).read_bytes() == (straight / name).read_bytes(), name
+
+    def without_clock(path):
+        return [ln for ln in path.read_text().splitlines() if ",time/" not in ln]
+
+    assert without_clock(broken / "progress.csv") == without_clock(straight / "progress.csv")
+    assert not (broken / "checkpoint.pt").exists() and (broken / "result.json").exists()
+    with pytest.raises(TlacError, match="finished run"):
+        resume_run(broken)

@@ -63,7 +63,18 @@ def _numbers_from_text(value: Any) -> Any:
 
 def _cmd_train(args: argparse.Namespace) -> int:
     from tlac.algorithms import NO_ADVICE
-    from tlac.run import RunSpec, train_run
+    from tlac.run import RunSpec, load_run_config, resume_run, train_run
+
+    if args.resume is not None:
+        config = load_run_config(args.resume)
+        print(f"tlac train: resuming {args.resume} ({config['algo']} on {config['env']})")
+        result = resume_run(
+            args.resume,
+            progress_bar=not args.no_progress,
+            checkpoint_every=args.checkpoint_every,
+        )
+        _print_result(result, int(config.get("eval_episodes", 0)), Path(args.resume))
+        return 0
 
     teachers = (
         None
@@ -108,8 +119,18 @@ def _cmd_train(args: argparse.Namespace) -> int:
         )
 
     result = train_run(
-        spec, out, progress_bar=not args.no_progress, on_eval=report_eval, replace=args.force
+        spec,
+        out,
+        progress_bar=not args.no_progress,
+        on_eval=report_eval,
+        replace=args.force,
+        checkpoint_every=args.checkpoint_every,
     )
+    _print_result(result, spec.eval_episodes, out)
+    return 0
+
+
+def _print_result(result: dict[str, Any], eval_episodes: int, out: Path) -> None:
     print(
         f"trained {result['steps']} steps in {result['wall_time_s']:.0f} s "
         f"({result['steps_per_s']:.0f} steps/s), {result['episodes']} episodes"
@@ -119,11 +140,10 @@ def _cmd_train(args: argparse.Namespace) -> int:
         print(f"training return, last episodes (teachers included): {train_return:.3f}")
     if result["final_eval_mean"] is not None:
         print(
-            f"student alone (no teachers, greedy), {spec.eval_episodes} episodes: "
+            f"student alone (no teachers, greedy), {eval_episodes} episodes: "
             f"{result['final_eval_mean']:.3f} +- {result['final_eval_std']:.3f}"
         )
     print(f"run folder: {out} (episodes.csv, teacher_usage.csv, eval.csv, config.yaml, model)")
-    return 0
 
 
 def _cmd_eval(args: argparse.Namespace) -> int:
@@ -267,6 +287,20 @@ def build_parser() -> argparse.ArgumentParser:
         "--tensorboard", action="store_true", help="also write TensorBoard logs to RUN/tb"
     )
     train.add_argument("--no-progress", action="store_true", help="no progress bar")
+    train.add_argument(
+        "--resume",
+        metavar="RUN",
+        default=None,
+        help="continue the unfinished TL-AC run RUN from its last checkpoint (other flags "
+        "except --no-progress and --checkpoint-every are taken from RUN/config.yaml)",
+    )
+    train.add_argument(
+        "--checkpoint-every",
+        type=positive_int,
+        default=50_000,
+        metavar="N",
+        help="TL-AC: save a checkpoint with the full training state every N steps (default 50000)",
+    )
     train.add_argument(
         "--force",
         action="store_true",

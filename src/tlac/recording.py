@@ -153,6 +153,14 @@ class Recorder:
         if timestep >= self._next_flush:
             self.flush(timestep)
 
+    def window_state(self) -> dict[str, Any]:
+        """The logging window in progress, as JSON data (for checkpoints)."""
+        return {"counts": self._counts.tolist(), "next_flush": int(self._next_flush)}
+
+    def load_window_state(self, state: dict[str, Any]) -> None:
+        self._counts[...] = np.asarray(state["counts"], dtype=np.int64)
+        self._next_flush = int(state["next_flush"])
+
     def flush(self, timestep: int) -> None:
         """Write the current window's usage rows (overall and per region) and start a new one."""
         if self._counts.sum() == 0:

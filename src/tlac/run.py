@@ -34,6 +34,9 @@ from tlac.recording import EpisodeRecorder, Recorder
 
 SELECTORS = ("learned", "random", "ucb1")
 RESULT_FILE = "result.json"
+CHECKPOINT_META = "checkpoint.json"
+CHECKPOINT_EVERY = 50_000
+"""Steps between the checkpoints of a TL-AC run (with its training state: exact resume)."""
 LOCK_FILE = ".run.lock"
 RUN_FILES = (
     "episodes.csv",
@@ -43,6 +46,7 @@ RUN_FILES = (
     "tb",
     "checkpoint.pt",
     "checkpoint.zip",
+    CHECKPOINT_META,
     "model.pt",
     "model.zip",
     "config.yaml",
@@ -188,6 +192,7 @@ def train_run(
     progress_bar: bool = False,
     on_eval: Any = None,
     replace: bool = True,
+    checkpoint_every: int | None = CHECKPOINT_EVERY,
 ) -> dict[str, Any]:
     """Train one run described by ``spec`` and write its run folder; returns ``result.json``'s
     content. Every setting is checked before anything is written. An unfinished run of the
@@ -213,15 +218,77 @@ def train_run(
     except OSError as exc:
         raise ConfigError(f"cannot write the run folder {str(out)!r}: {exc.strerror}") from None
     try:
-        return _train_locked(spec, out, domain, hp, progress_bar, on_eval)
+        return _train_locked(
+            spec, out, domain, hp, progress_bar, on_eval, checkpoint_every=checkpoint_every
+        )
     finally:
         lock.release()
 
 
-def _train_locked(
-    spec: RunSpec, out: Path, domain: Domain, hp: dict[str, Any], progress_bar: bool, on_eval: Any
+def resume_run(
+    run_dir: str | Path,
+    progress_bar: bool = False,
+    on_eval: Any = None,
+    checkpoint_every: int | None = CHECKPOINT_EVERY,
 ) -> dict[str, Any]:
-    _clear_run_folder(out)
+    """Continue the unfinished run in ``run_dir`` from its last checkpoint (``tlac train
+    --resume``). With TL-AC the continuation is exact: the run files end byte-identical to an
+    uninterrupted run's (the rows written after the checkpoint are dropped and redone)."""
+    out = Path(run_dir)
+    config = load_run_config(out)
+    if (out / RESULT_FILE).exists():
+        raise ConfigError(f"{str(out)!r} is a finished run; nothing to resume")
+    if not (out / CHECKPOINT_META).exists() or not (out / "checkpoint.pt").exists():
+        raise ConfigError(
+            f"{str(out)!r} has no checkpoint to resume from (TL-AC runs write one every "
+            "--checkpoint-every steps)"
+        )
+    fields = {f.name for f in dataclasses.fields(RunSpec)}
+    spec = RunSpec(**{k: v for k, v in config.items() if k in fields})
+    spec.teachers = config.get("teacher_kinds", spec.teachers)
+    domain = spec.validate()
+    hp = hyperparameters(spec)
+    lock = FileLock(str(out / LOCK_FILE))
+    try:
+        lock.acquire(timeout=0)
+    except Timeout:
+        raise ConfigError(f"{str(out)!r} is in use by another tlac process") from None
+    try:
+        return _train_locked(
+            spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, resume=True
+        )
+    finally:
+        lock.release()
+
+
+def _keep_rows_until(path: Path, last_step: int) -> None:
+    """Drop the rows of a run CSV whose timestep (first column) is after ``last_step``."""
+    if not path.exists():
+        return
+    lines = path.read_bytes().splitlines(keepends=True)  # bytes: the csv module's \r\n stays
+    kept = lines[:1] + [ln for ln in lines[1:] if int(float(ln.split(b",", 1)[0])) <= last_step]
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_bytes(b"".join(kept))
+    os.replace(tmp, path)
+
+
+def _train_locked(
+    spec: RunSpec,
+    out: Path,
+    domain: Domain,
+    hp: dict[str, Any],
+    progress_bar: bool,
+    on_eval: Any,
+    checkpoint_every: int | None = None,
+    resume: bool = False,
+) -> dict[str, Any]:
+    meta: dict[str, Any] = {}
+    if resume:
+        meta = json.loads((out / CHECKPOINT_META).read_text())
+        for name in ("episodes.csv", "eval.csv", "progress.csv", "teacher_usage.csv"):
+            _keep_rows_until(out / name, int(meta["num_timesteps"]))
+    else:
+        _clear_run_folder(out)
     n_envs = int(hp.pop("n_envs", 1))
 
     # small networks: one thread is fastest, and parallel runs must not oversubscribe cores
@@ -246,16 +313,23 @@ def _train_locked(
         "preset": spec.resolved_preset(),
         "hyperparameters": {"n_envs": n_envs, **hp},
     }
-    (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+    if not resume:
+        (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
 
     algo_cls = get_algorithm(spec.algo)
     if spec.algo == "tlac":
         hp = {**hp, "preset": None}  # hp is the resolved preset already
-    model = algo_cls(env=venv, teachers=teachers, seed=spec.seed, recorder=recorder, **hp)
-
+    exact = spec.algo == "tlac"  # the algorithms whose checkpoints hold the training state
     eval_rows: list[tuple[int, float, float, int]] = []
     eval_file = out / "eval.csv"
-    eval_file.write_text("timestep,mean_return,std_return,episodes\n")
+    if resume:
+        model = algo_cls.load(out / "checkpoint.pt", env=venv, teachers=teachers, resume=True)
+        model.recorder = recorder
+        recorder.load_window_state(meta["recorder"])
+        eval_rows = [tuple(r) for r in meta["eval_rows"]]  # type: ignore[misc]
+    else:
+        model = algo_cls(env=venv, teachers=teachers, seed=spec.seed, recorder=recorder, **hp)
+        eval_file.write_text("timestep,mean_return,std_return,episodes\n")
 
     def evaluate(timestep: int) -> None:
         if spec.eval_episodes <= 0:
@@ -269,26 +343,49 @@ def _train_locked(
             train_return = venv.mean_recent_return() if venv.episode_returns else None
             on_eval(timestep, row[1], train_return)
 
-    next_eval = spec.eval_every if spec.eval_every else None
+    next_eval = meta.get("next_eval", spec.eval_every if spec.eval_every else None)
+    next_checkpoint = meta.get("next_checkpoint", checkpoint_every if exact else None)
+
+    def save_checkpoint(timestep: int) -> None:
+        """The model with its training state, then (last, atomically) what the run folder's
+        writers need to continue: a crash at any moment leaves the previous checkpoint whole."""
+        if not exact:
+            model.save(out / "checkpoint")
+            return
+        model.save(out / "checkpoint", training_state=True)  # the writers flush every row
+        state = {
+            "num_timesteps": timestep,
+            "eval_rows": eval_rows,
+            "next_eval": next_eval,
+            "next_checkpoint": next_checkpoint,
+            "recorder": recorder.window_state(),
+        }
+        atomic_write_text(out / CHECKPOINT_META, json.dumps(state))
 
     def callback(algo: Any) -> bool:
-        nonlocal next_eval
+        nonlocal next_eval, next_checkpoint
+        due = False
         if next_eval is not None and algo.num_timesteps >= next_eval:
             evaluate(algo.num_timesteps)
-            model.save(out / "checkpoint")
             next_eval = (algo.num_timesteps // spec.eval_every + 1) * spec.eval_every
+            due = True
+        if next_checkpoint is not None and algo.num_timesteps >= next_checkpoint:
+            next_checkpoint = (algo.num_timesteps // checkpoint_every + 1) * checkpoint_every
+            due = True
+        if due:
+            save_checkpoint(algo.num_timesteps)
         return True
 
     start = time.time()
-    if spec.eval_every:
+    if spec.eval_every and not resume:
         evaluate(0)
-    model.learn(spec.steps, callback=callback, progress_bar=progress_bar)
+    model.learn(spec.steps - model.num_timesteps, callback=callback, progress_bar=progress_bar)
     wall = time.time() - start
     recorder.close(model.num_timesteps)
     model.save(out / "model")
     if not eval_rows or eval_rows[-1][0] != model.num_timesteps:
         evaluate(model.num_timesteps)
-    for name in ("checkpoint.pt", "checkpoint.zip"):
+    for name in ("checkpoint.pt", "checkpoint.zip", CHECKPOINT_META):
         (out / name).unlink(missing_ok=True)
     result = {
         "finished": True,
