@@ -170,20 +170,34 @@ def check_out_folder(out: Path, spec: RunSpec, domain: Domain, replace: bool) ->
         raise ConfigError(
             f"--out {str(out)!r} holds a finished run; give another folder, or --force to replace it"
         )
-    try:
-        saved = yaml.safe_load((out / "config.yaml").read_text()) or {}
-    except (OSError, yaml.YAMLError):
-        saved = None
-    same = (
-        isinstance(saved, dict)
-        and saved.get("teacher_kinds") == spec.resolved_teachers(domain)
-        and all(saved.get(k) == v for k, v in dataclasses.asdict(spec).items() if k != "teachers")
-    )
-    if not same:
+    if not _same_settings(out, spec, domain):
         raise ConfigError(
             f"--out {str(out)!r} is not empty and is not an unfinished run of these settings; "
             "give another folder, or --force to replace its run files"
         )
+
+
+def _same_settings(out: Path, spec: RunSpec, domain: Domain) -> bool:
+    """Whether ``out/config.yaml`` was written for exactly ``spec``."""
+    try:
+        saved = yaml.safe_load((out / "config.yaml").read_text()) or {}
+    except (OSError, yaml.YAMLError):
+        return False
+    return (
+        isinstance(saved, dict)
+        and saved.get("teacher_kinds") == spec.resolved_teachers(domain)
+        and all(saved.get(k) == v for k, v in dataclasses.asdict(spec).items() if k != "teachers")
+    )
+
+
+def _resumable(out: Path, spec: RunSpec, domain: Domain) -> bool:
+    """An unfinished run of ``spec`` with a checkpoint that holds its training state."""
+    return (
+        (out / CHECKPOINT_META).exists()
+        and (out / "checkpoint.pt").exists()
+        and not (out / RESULT_FILE).exists()
+        and _same_settings(out, spec, domain)
+    )
 
 
 def train_run(
@@ -196,7 +210,8 @@ def train_run(
 ) -> dict[str, Any]:
     """Train one run described by ``spec`` and write its run folder; returns ``result.json``'s
     content. Every setting is checked before anything is written. An unfinished run of the
-    same settings at ``out_dir`` (no ``result.json``) is redone from scratch; with
+    same settings at ``out_dir`` (no ``result.json``) continues from its last checkpoint when
+    it has one with the training state (TL-AC), else is redone from scratch; with
     ``replace=False`` (``tlac train`` without ``--force``) a finished run or a folder holding
     anything else is refused (:func:`check_out_folder`). The folder is locked while the run
     writes it. ``on_eval(timestep, student_alone_mean, training_return)`` is called after
@@ -218,8 +233,9 @@ def train_run(
     except OSError as exc:
         raise ConfigError(f"cannot write the run folder {str(out)!r}: {exc.strerror}") from None
     try:
+        resume = _resumable(out, spec, domain)
         return _train_locked(
-            spec, out, domain, hp, progress_bar, on_eval, checkpoint_every=checkpoint_every
+            spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, resume=resume
         )
     finally:
         lock.release()
