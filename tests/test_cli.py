@@ -154,6 +154,8 @@ def test_an_interrupted_run_resumes_exactly(tmp_path):
         eval_every=1008,
         eval_episodes=2,
         log_interval=504,
+        # a linear schedule: the resumed part must continue it, not restart it
+        overrides={"learning_rate": {"linear": [7.0e-4, 1.0e-4]}},
     )
     straight, broken = tmp_path / "straight", tmp_path / "broken"
     train_run(spec, straight, checkpoint_every=1008)

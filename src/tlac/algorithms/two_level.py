@@ -930,6 +930,11 @@ class TLAC:
             )
         start_steps = self.num_timesteps
         end_steps = start_steps + int(total_timesteps)
+        # the schedules' clock: this call's steps, or, right after a resume, the interrupted
+        # call's (so that a resumed run follows the same linear schedules as an uninterrupted one)
+        origin, horizon = getattr(self, "_resumed_schedule", None) or (start_steps, total_timesteps)
+        self._resumed_schedule = None
+        self._schedule = (origin, horizon)
         episodes = find_episode_recorder(self.env)
         bar = make_progress_bar(int(total_timesteps), "TL-AC", progress_bar)
         usage = np.zeros(self.n_choices)
@@ -940,7 +945,7 @@ class TLAC:
         while self.num_timesteps < end_steps:
             ro = self.collect()
             usage += np.bincount(ro.choices.reshape(-1), minlength=self.n_choices)
-            progress_remaining = 1.0 - (self.num_timesteps - start_steps) / total_timesteps
+            progress_remaining = 1.0 - (self.num_timesteps - origin) / horizon
             stats = self.update(ro, max(progress_remaining, 0.0))
             for k, v in stats.items():
                 window.setdefault(k, []).append(v)
@@ -1034,6 +1039,7 @@ class TLAC:
             "sde_noise": tensor(self._sde_noise),
             "teachers": [generator_states(t) for t in self.teachers],
             "env": vec_env_state(self.env),
+            "schedule": list(getattr(self, "_schedule", (self.num_timesteps, 1))),
         }
 
     def _load_training_state(self, state: dict[str, Any]) -> None:
@@ -1062,6 +1068,7 @@ class TLAC:
         for teacher, states in zip(self.teachers, state["teachers"], strict=True):
             restore_generator_states(teacher, states)
         restore_vec_env(self.env, state["env"])
+        self._resumed_schedule = tuple(state["schedule"])
 
     @classmethod
     def load(
@@ -1076,7 +1083,9 @@ class TLAC:
 
         ``resume``: restore the training state of a file saved with ``training_state=True``
         (needs ``env`` and the same ``teachers``), so that ``learn`` continues exactly where
-        the saved model stopped. This unpickles the saved environments: resume your own
+        the saved model stopped; the next ``learn`` call keeps the schedules (learning rate,
+        clip range...) of the call that was interrupted, so a run resumed with its remaining
+        steps follows the same schedules as an uninterrupted one. This unpickles the saved environments: resume your own
         checkpoints only. Without ``resume`` loading runs no code from the file."""
         path = Path(path)
         if not path.exists() and path.with_name(path.name + ".pt").exists():
