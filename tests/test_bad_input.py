@@ -306,6 +306,7 @@ CLI_CASES += [
     (["experiment", "run", str(TINY), "--out", "RUN"], "not a grid folder"),
     (["experiment", "run", str(TINY), "--out", "/proc/no/such"], "cannot create the grid folder"),
     (["experiment", "run", str(TINY), "--out", "BROKEN/a_file"], "a_file"),
+    (["experiment", "run", str(TINY), "--out", "NEW", "--address", "auto"], "--address needs"),
     (["experiment", "list", "/no/such.yaml"], "/no/such.yaml"),
     (["experiment", "list", "BROKEN/garbage.yaml"], "garbage.yaml"),
     # tlac teacher

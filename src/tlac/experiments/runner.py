@@ -176,6 +176,21 @@ def check_grid_settings(config: ExperimentConfig) -> None:
 
 
 @contextlib.contextmanager
+def _stderr_silenced() -> Iterator[None]:
+    """Send this process's file descriptor 2 (C++ libraries' logs too) to /dev/null."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(devnull)
+
+
+@contextlib.contextmanager
 def dir_lock(out: Path) -> Iterator[None]:
     """An exclusive lock on ``DIR/.lock`` for the driver's lifetime (released even on SIGKILL;
     ``filelock`` works on Linux, macOS and Windows)."""
@@ -570,12 +585,21 @@ def run_ray(
             "log_to_driver": False,
         }
         if address is None:
+            # "local": always a new instance here, even when an earlier `ray start` left a
+            # cluster file behind (Ray would otherwise try to join it and refuse num_cpus)
+            kwargs["address"] = "local"
             kwargs["num_cpus"] = workers or os.cpu_count() or 1
         else:
             kwargs["address"] = address
         kwargs.update(ray_init_kwargs or {})
         started_here = not ray.is_initialized()
-        ray.init(**kwargs)
+        try:
+            with _stderr_silenced():  # Ray's core logs every retry: our error says it in one line
+                ray.init(logging_level="ERROR", **kwargs)
+        except Exception as exc:  # noqa: BLE001 - Ray raises several kinds, all multi-line
+            first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+            where = "a local Ray instance" if address is None else f"the Ray cluster at {address!r}"
+            raise ConfigError(f"cannot start or join {where}: {first[:200]}") from None
         # max_retries: Ray retries a task only when its worker or node dies, not on exceptions
         task = ray.remote(num_cpus=1, max_retries=2)(execute_run_packed)
         in_flight = workers if workers else len(todo)
