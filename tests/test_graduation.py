@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import math
 
 import gymnasium as gym
 import numpy as np
@@ -76,11 +77,15 @@ def test_python_api_uses_the_domain_preset():
 
 def test_a_users_environment_gets_the_default_preset():
     default = load_preset("default", "tlac")
-    assert default == {
-        "ent_coef_high": 0.01
-    }  # docs/graduation.md: chosen on benchmarks/user_envs.py
+    # docs/graduation.md: chosen on benchmarks/user_envs.py (no cap: measured worse there)
+    assert default == {"ent_coef_high": 0.01, "ent_cap_high": 0.0}
     model = TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: 0], seed=0)
-    assert model.config == TLACConfig(ent_coef_high=0.01)
+    assert model.config == TLACConfig(ent_coef_high=0.01, ent_cap_high=0.0)
+    # a named domain's preset leaves the high-level bonus to the graduate variant: capped
+    doorkey = TLAC("doorkey", teachers=["optimal"]).config
+    assert (doorkey.ent_coef_high, doorkey.ent_cap_high, doorkey.ent_coef) == (0.03, 0.5, 0.0)
+    paper = TLAC("doorkey", teachers=["optimal"], variant="paper").config
+    assert (paper.ent_coef_high, paper.ent_cap_high) == (None, 0.0)
     assert TLAC(gym.make("CartPole-v1"), teachers=[], ent_coef_high=0.0).config.ent_coef_high == 0
     hopper = TLAC(gym.make("Pendulum-v1"), teachers=[], preset="hopper", batch_size=8)
     assert hopper.config.n_epochs == load_preset("hopper", "tlac")["n_epochs"]
@@ -230,3 +235,20 @@ def test_doorkey_student_alone_succeeds():
     model.learn(100_000, progress_bar=False)
     returns = evaluate_student(model, get_domain("doorkey"), 50, seed=10_000)
     assert returns.mean() >= 0.85, returns
+
+
+def test_capped_high_level_entropy_hand_checked():
+    """The graduate variant's high-level bonus counts each state's entropy up to the cap:
+    a uniform state over 4 choices (ln 4 = 1.386 nats) counts 0.5, a certain one ~0."""
+    model = TLAC("doorkey", teachers=["optimal", "random", "random"], seed=0)
+    high = torch.tensor([[0.0, 0.0, 0.0, 0.0], [50.0, 0.0, 0.0, 0.0]])
+    low, latent = torch.zeros(2, 6), torch.zeros(2, 64)
+    capped = model._mean_entropies(high, low, latent, cap_high=0.5)
+    uncapped = model._mean_entropies(high, low, latent)
+    assert abs(float(capped[1]) - 0.25) < 1e-6  # (0.5 + 0) / 2
+    assert abs(float(uncapped[1]) - math.log(4) / 2) < 1e-6
+    assert abs(float(capped[0]) - math.log(6)) < 1e-6  # the low level is never capped
+    # the cap stops the bonus's gradient in states already above it
+    logits = high.clone().requires_grad_(True)
+    model._mean_entropies(logits, low, latent, cap_high=0.5)[1].backward()
+    assert float(logits.grad[0].abs().sum()) == 0.0

@@ -199,7 +199,6 @@ POSITIVE_SETTINGS = frozenset(
         "clip_range",
         "target_kl",
         "optimizer_eps",
-        "ent_cap_high",
     }
 )
 """Settings that must be > 0 wherever they appear (a number, or a schedule's end points)."""

@@ -90,6 +90,10 @@ VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
         "solo_budget": 0.05,
         "kl_rows": "high",
         "obs_encoding": "auto",
+        # a capped entropy bonus on the high level: without it, partial teachers (L + R)
+        # collapse the high level onto one teacher (docs/graduation.md)
+        "ent_coef_high": 0.03,
+        "ent_cap_high": 0.5,
     },
     "paper": {
         "distill_coef": 0.0,
@@ -98,6 +102,7 @@ VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
         "solo_budget": 0.0,
         "kl_rows": "agent",
         "obs_encoding": "raw",
+        "ent_cap_high": 0.0,  # no cap (ent_coef_high stays the preset's, ent_coef)
     },
 }
 """What each TL-AC variant sets when the corresponding setting is left at None."""
@@ -128,7 +133,8 @@ class TLACConfig:
     ent_cap_high: float | None = None
     """With a high-level entropy bonus: each state's entropy counts only up to this many nats,
     so the bonus keeps the high level from collapsing without pushing it towards uniform
-    choices (None: no cap; a candidate, docs/graduation.md)."""
+    choices (0: no cap). None: the variant's (graduate 0.5, paper 0). The graduate variant
+    also sets ent_coef_high to 0.03 when the preset leaves it unset (docs/graduation.md)."""
     vf_coef: float = 0.5
     max_grad_norm: float = 0.5
     gamma: float = 0.99
@@ -265,6 +271,7 @@ class TLACConfig:
             "ent_coef",
             "optimizer_eps",
             "advice_cost",
+            "ent_cap_high",
             "solo_budget",
         ):
             if getattr(self, name) < 0:
@@ -844,7 +851,9 @@ class TLAC:
                     loss = loss + distill * imitation
                     imitation_stats.append(imitation.detach())
                 if self._use_entropy:  # skipped when both coefficients are 0 (Table 5)
-                    entropies = self._mean_entropies(high_logits, low_out, latent, cfg.ent_cap_high)
+                    entropies = self._mean_entropies(
+                        high_logits, low_out, latent, cfg.ent_cap_high or None
+                    )
                     loss = loss - (self._ent_coefs[: len(entropies)] * entropies).sum()
                 kl = float(kls.max())
                 stats.append(torch.cat([policy_losses.detach(), vf_loss.detach()[None], kls]))
