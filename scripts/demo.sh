@@ -5,5 +5,5 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
-.venv/bin/tlac train --out runs/demo --steps 100000 --eval-every 25000 "$@"
+.venv/bin/tlac train --out runs/demo --force --steps 100000 --eval-every 25000 "$@"
 .venv/bin/tlac eval runs/demo --episodes 100 --with-teachers
