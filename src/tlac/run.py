@@ -10,11 +10,13 @@ once ``result.json`` exists; it is written last, atomically (temporary file + re
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import os
 import shutil
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -177,6 +179,21 @@ def check_out_folder(out: Path, spec: RunSpec, domain: Domain, replace: bool) ->
         )
 
 
+@contextlib.contextmanager
+def folder_lock(lock_file: Path, busy: str) -> Iterator[None]:
+    """Hold an exclusive lock on ``lock_file`` (``filelock``: Linux, macOS and Windows;
+    released even when the process is killed); a lock held elsewhere is ConfigError(busy)."""
+    lock = FileLock(str(lock_file))
+    try:
+        lock.acquire(timeout=0)
+    except Timeout:
+        raise ConfigError(busy) from None
+    try:
+        yield
+    finally:
+        lock.release()
+
+
 def _same_settings(out: Path, spec: RunSpec, domain: Domain) -> bool:
     """Whether ``out/config.yaml`` was written for exactly ``spec``."""
     try:
@@ -226,19 +243,13 @@ def train_run(
     check_out_folder(out, spec, domain, replace)
     try:
         out.mkdir(parents=True, exist_ok=True)
-        lock = FileLock(str(out / LOCK_FILE))
-        lock.acquire(timeout=0)
-    except Timeout:
-        raise ConfigError(f"--out {str(out)!r} is in use by another tlac process") from None
     except OSError as exc:
         raise ConfigError(f"cannot write the run folder {str(out)!r}: {exc.strerror}") from None
-    try:
+    with folder_lock(out / LOCK_FILE, f"--out {str(out)!r} is in use by another tlac process"):
         resume = _resumable(out, spec, domain)
         return _train_locked(
             spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, resume=resume
         )
-    finally:
-        lock.release()
 
 
 def resume_run(
@@ -264,17 +275,10 @@ def resume_run(
     spec.teachers = config.get("teacher_kinds", spec.teachers)
     domain = spec.validate()
     hp = hyperparameters(spec)
-    lock = FileLock(str(out / LOCK_FILE))
-    try:
-        lock.acquire(timeout=0)
-    except Timeout:
-        raise ConfigError(f"{str(out)!r} is in use by another tlac process") from None
-    try:
+    with folder_lock(out / LOCK_FILE, f"{str(out)!r} is in use by another tlac process"):
         return _train_locked(
             spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, resume=True
         )
-    finally:
-        lock.release()
 
 
 def _keep_rows_until(path: Path, last_step: int) -> None:

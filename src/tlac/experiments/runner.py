@@ -39,12 +39,11 @@ from pathlib import Path
 from typing import Any
 
 import yaml
-from filelock import FileLock, Timeout
 
 from tlac.errors import ConfigError
 from tlac.experiments.config import ExperimentConfig
 from tlac.experiments.grid import ERROR_FILE, RUNS_DIR, GridRun, expand_grid, run_dir, run_status
-from tlac.run import RESULT_FILE, RunSpec, atomic_write_text
+from tlac.run import RESULT_FILE, RunSpec, atomic_write_text, folder_lock
 
 EXPERIMENT_FILE = "experiment.yaml"
 TEACHERS_FILE = "teachers.json"
@@ -194,15 +193,8 @@ def _stderr_silenced() -> Iterator[None]:
 def dir_lock(out: Path) -> Iterator[None]:
     """An exclusive lock on ``DIR/.lock`` for the driver's lifetime (released even on SIGKILL;
     ``filelock`` works on Linux, macOS and Windows)."""
-    lock = FileLock(str(out / LOCK_FILE))
-    try:
-        lock.acquire(timeout=0)
-    except Timeout:
-        raise ConfigError(f"{out}: another 'tlac experiment run' is using this folder") from None
-    try:
+    with folder_lock(out / LOCK_FILE, f"{out}: another 'tlac experiment run' is using this folder"):
         yield
-    finally:
-        lock.release()
 
 
 def evaluate_teachers(config: ExperimentConfig, out: Path) -> dict[str, Any]:
