@@ -182,3 +182,14 @@ def test_an_interrupted_run_resumes_exactly(tmp_path):
     assert not (broken / "checkpoint.pt").exists() and (broken / "result.json").exists()
     with pytest.raises(TlacError, match="finished run"):
         resume_run(broken)
+
+
+def test_a_run_folder_in_use_is_refused(tmp_path, capsys):
+    from tlac.run import LOCK_FILE, folder_lock
+
+    out = tmp_path / "run"
+    out.mkdir()
+    with folder_lock(out / LOCK_FILE, "held by this test"):
+        code = main(["train", "--steps", "64", "--out", str(out), "--no-progress"])
+    assert code == 2 and "is in use by another tlac process" in capsys.readouterr().err
+    assert not (out / "config.yaml").exists()

@@ -166,7 +166,7 @@ def check_out_folder(out: Path, spec: RunSpec, domain: Domain, replace: bool) ->
     settings is redone. Raises ConfigError naming the folder and the way out."""
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} is a file; expected a folder for the run")
-    if replace or not out.exists() or not any(out.iterdir()):
+    if replace or not out.exists() or all(p.name == LOCK_FILE for p in out.iterdir()):
         return
     if (out / RESULT_FILE).exists():
         raise ConfigError(
