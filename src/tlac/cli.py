@@ -125,6 +125,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
         on_eval=report_eval,
         replace=args.force,
         checkpoint_every=args.checkpoint_every,
+        fresh=args.force,
     )
     _print_result(result, spec.eval_episodes, out)
     return 0
@@ -304,7 +305,8 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument(
         "--force",
         action="store_true",
-        help="replace the run files in a non-empty --out (a finished run included)",
+        help="replace the run files in a non-empty --out (a finished run included) and start "
+        "afresh (without it, an unfinished run of the same settings continues)",
     )
     train.set_defaults(func=_cmd_train)
 

@@ -163,7 +163,8 @@ def _clear_run_folder(out: Path) -> None:
 def check_out_folder(out: Path, spec: RunSpec, domain: Domain, replace: bool) -> None:
     """Refuse to write a run into ``out`` when that would destroy something: a finished run,
     another run's files, or anything else (unless ``replace``). An unfinished run of the same
-    settings is redone. Raises ConfigError naming the folder and the way out."""
+    settings is accepted (it continues or is redone). Raises ConfigError naming the folder and
+    the way out."""
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} is a file; expected a folder for the run")
     if replace or not out.exists() or all(p.name == LOCK_FILE for p in out.iterdir()):
@@ -224,6 +225,7 @@ def train_run(
     on_eval: Any = None,
     replace: bool = True,
     checkpoint_every: int | None = CHECKPOINT_EVERY,
+    fresh: bool = False,
 ) -> dict[str, Any]:
     """Train one run described by ``spec`` and write its run folder; returns ``result.json``'s
     content. Every setting is checked before anything is written. An unfinished run of the
@@ -233,7 +235,8 @@ def train_run(
     anything else is refused (:func:`check_out_folder`). The folder is locked while the run
     writes it. ``on_eval(timestep, student_alone_mean, training_return)`` is called after
     every evaluation of the student alone (``training_return``: mean of the recent training
-    episodes, teachers included, or ``None`` before the first episode ends)."""
+    episodes, teachers included, or ``None`` before the first episode ends). ``fresh``: never
+    continue from a checkpoint (``tlac train --force``)."""
     domain = spec.validate()
     hp = hyperparameters(spec)
     check = getattr(get_algorithm(spec.algo), "check_hyperparameters", None)
@@ -246,7 +249,7 @@ def train_run(
     except OSError as exc:
         raise ConfigError(f"cannot write the run folder {str(out)!r}: {exc.strerror}") from None
     with folder_lock(out / LOCK_FILE, f"--out {str(out)!r} is in use by another tlac process"):
-        resume = _resumable(out, spec, domain)
+        resume = not fresh and _resumable(out, spec, domain)
         return _train_locked(
             spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, resume=resume
         )
