@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -193,3 +194,40 @@ def test_a_run_folder_in_use_is_refused(tmp_path, capsys):
         code = main(["train", "--steps", "64", "--out", str(out), "--no-progress"])
     assert code == 2 and "is in use by another tlac process" in capsys.readouterr().err
     assert not (out / "config.yaml").exists()
+
+
+def test_force_starts_afresh_and_a_rerun_continues(tmp_path, monkeypatch):
+    """Without --force, `tlac train` on an unfinished run of the same settings continues from
+    its checkpoint; with --force it starts again from step 0."""
+    import tlac.run as run_module
+
+    out = tmp_path / "run"
+    args = ["train", "--steps", "1008", "--out", str(out), "--no-progress", "--eval-episodes", "1"]
+    args += ["--checkpoint-every", "512", "--eval-every", "512"]
+    seen: list[bool] = []
+    real = run_module._train_locked
+
+    def crash_after_a_checkpoint(*a, **kw):
+        def crash(timestep, student, train_return):
+            if timestep >= 1000:
+                raise KeyboardInterrupt
+
+        return real(*a[:5], crash, *a[6:], **kw)
+
+    monkeypatch.setattr(run_module, "_train_locked", crash_after_a_checkpoint)
+    assert main(args) == 130  # interrupted after the checkpoint at 512 steps
+    assert (out / "checkpoint.json").exists()
+
+    def spy(*a, **kw):
+        seen.append(kw["resume"])
+        return real(*a, **kw)
+
+    monkeypatch.setattr(run_module, "_train_locked", spy)
+    assert main([*args, "--force"]) == 0
+    assert main(args) == 2  # now finished: refused
+    shutil.rmtree(out)
+    monkeypatch.setattr(run_module, "_train_locked", crash_after_a_checkpoint)
+    assert main(args) == 130
+    monkeypatch.setattr(run_module, "_train_locked", spy)
+    assert main(args) == 0
+    assert seen == [False, True]

@@ -201,10 +201,12 @@ def _same_settings(out: Path, spec: RunSpec, domain: Domain) -> bool:
         saved = yaml.safe_load((out / "config.yaml").read_text()) or {}
     except (OSError, yaml.YAMLError):
         return False
+    resolved = {"teachers": None, "preset": spec.resolved_preset()}  # as config.yaml has them
     return (
         isinstance(saved, dict)
         and saved.get("teacher_kinds") == spec.resolved_teachers(domain)
-        and all(saved.get(k) == v for k, v in dataclasses.asdict(spec).items() if k != "teachers")
+        and saved.get("preset") == resolved["preset"]
+        and all(saved.get(k) == v for k, v in dataclasses.asdict(spec).items() if k not in resolved)
     )
 
 
