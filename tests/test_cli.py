@@ -170,7 +170,7 @@ def test_an_interrupted_run_resumes_exactly(tmp_path):
 
     with pytest.raises(Crash):
         train_run(spec, broken, on_eval=crash_at_2016, checkpoint_every=1008)
-    assert (broken / "checkpoint.json").exists() and not (broken / "result.json").exists()
+    assert (broken / "checkpoint.pt").exists() and not (broken / "result.json").exists()
     proc = run_cli("train", "--resume", str(broken), "--no-progress", "--checkpoint-every", "1008")
     assert proc.returncode == 0, proc.stderr
     for name in ("episodes.csv", "eval.csv", "teacher_usage.csv"):
@@ -216,10 +216,10 @@ def test_force_starts_afresh_and_a_rerun_continues(tmp_path, monkeypatch):
 
     monkeypatch.setattr(run_module, "_train_locked", crash_after_a_checkpoint)
     assert main(args) == 130  # interrupted after the checkpoint at 512 steps
-    assert (out / "checkpoint.json").exists()
+    assert (out / "checkpoint.pt").exists()
 
     def spy(*a, **kw):
-        seen.append(kw["resume"])
+        seen.append(kw["meta"] is not None)  # continued from a checkpoint?
         return real(*a, **kw)
 
     monkeypatch.setattr(run_module, "_train_locked", spy)

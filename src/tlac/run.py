@@ -28,6 +28,7 @@ from filelock import FileLock, Timeout
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from tlac.algorithms import NO_ADVICE, get_algorithm
+from tlac.algorithms.common import check_seed, safe_torch_load
 from tlac.envs import Domain, get_domain, make_teachers, parse_teacher_spec
 from tlac.errors import ConfigError, UnknownNameError, read_yaml_file
 from tlac.evaluation import evaluate_student
@@ -36,7 +37,7 @@ from tlac.recording import EpisodeRecorder, Recorder
 
 SELECTORS = ("learned", "random", "ucb1")
 RESULT_FILE = "result.json"
-CHECKPOINT_META = "checkpoint.json"
+CHECKPOINT = "checkpoint.pt"
 CHECKPOINT_EVERY = 50_000
 """Steps between the checkpoints of a TL-AC run (with its training state: exact resume)."""
 LOCK_FILE = ".run.lock"
@@ -46,9 +47,8 @@ RUN_FILES = (
     "progress.csv",
     "eval.csv",
     "tb",
-    "checkpoint.pt",
+    CHECKPOINT,
     "checkpoint.zip",
-    CHECKPOINT_META,
     "model.pt",
     "model.zip",
     "config.yaml",
@@ -102,8 +102,7 @@ class RunSpec:
         get_algorithm(self.algo)
         if not isinstance(self.steps, int) or isinstance(self.steps, bool) or self.steps <= 0:
             raise ConfigError(f"steps must be a positive integer, got {self.steps!r}")
-        if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0:
-            raise ConfigError(f"seed must be a non-negative integer, got {self.seed!r}")
+        check_seed(self.seed)
         if self.selector not in SELECTORS:
             raise UnknownNameError("selector", self.selector, SELECTORS)
         if self.eval_every is not None and self.eval_every <= 0:
@@ -210,14 +209,22 @@ def _same_settings(out: Path, spec: RunSpec, domain: Domain) -> bool:
     )
 
 
-def _resumable(out: Path, spec: RunSpec, domain: Domain) -> bool:
-    """An unfinished run of ``spec`` with a checkpoint that holds its training state."""
-    return (
-        (out / CHECKPOINT_META).exists()
-        and (out / "checkpoint.pt").exists()
-        and not (out / RESULT_FILE).exists()
-        and _same_settings(out, spec, domain)
-    )
+def _checkpoint_run_state(out: Path) -> dict[str, Any] | None:
+    """What the run's writers need to continue from ``out/checkpoint.pt`` (saved in the same
+    file as the model and its training state); None without such a checkpoint."""
+    if not (out / CHECKPOINT).exists():
+        return None
+    state = safe_torch_load(out / CHECKPOINT, "checkpoint")
+    run_state = state.get("run") if isinstance(state, dict) else None
+    return run_state if isinstance(run_state, dict) and "training" in state else None
+
+
+def _resumable(out: Path, spec: RunSpec, domain: Domain) -> dict[str, Any] | None:
+    """The run state of an unfinished run of ``spec`` whose checkpoint holds its training
+    state, else None."""
+    if (out / RESULT_FILE).exists() or not _same_settings(out, spec, domain):
+        return None
+    return _checkpoint_run_state(out)
 
 
 def train_run(
@@ -251,9 +258,9 @@ def train_run(
     except OSError as exc:
         raise ConfigError(f"cannot write the run folder {str(out)!r}: {exc.strerror}") from None
     with folder_lock(out / LOCK_FILE, f"--out {str(out)!r} is in use by another tlac process"):
-        resume = not fresh and _resumable(out, spec, domain)
+        meta = None if fresh else _resumable(out, spec, domain)
         return _train_locked(
-            spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, resume=resume
+            spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, meta=meta
         )
 
 
@@ -270,7 +277,8 @@ def resume_run(
     config = load_run_config(out)
     if (out / RESULT_FILE).exists():
         raise ConfigError(f"{str(out)!r} is a finished run; nothing to resume")
-    if not (out / CHECKPOINT_META).exists() or not (out / "checkpoint.pt").exists():
+    meta = _checkpoint_run_state(out)
+    if meta is None:
         raise ConfigError(
             f"{str(out)!r} has no checkpoint to resume from (TL-AC runs write one every "
             "--checkpoint-every steps)"
@@ -282,7 +290,7 @@ def resume_run(
     hp = hyperparameters(spec)
     with folder_lock(out / LOCK_FILE, f"{str(out)!r} is in use by another tlac process"):
         return _train_locked(
-            spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, resume=True
+            spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, meta=meta
         )
 
 
@@ -305,14 +313,16 @@ def _train_locked(
     progress_bar: bool,
     on_eval: Any,
     checkpoint_every: int | None = None,
-    resume: bool = False,
+    meta: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    meta: dict[str, Any] = {}
-    if resume:
-        meta = json.loads((out / CHECKPOINT_META).read_text())
+    """The run itself, the folder locked; ``meta``: the run state of the checkpoint to
+    continue from (None: from scratch)."""
+    resume = meta is not None
+    if meta is not None:
         for name in ("episodes.csv", "eval.csv", "progress.csv", "teacher_usage.csv"):
             _keep_rows_until(out / name, int(meta["num_timesteps"]))
     else:
+        meta = {}
         _clear_run_folder(out)
     n_envs = int(hp.pop("n_envs", 1))
 
@@ -331,14 +341,14 @@ def _train_locked(
         log_interval=spec.log_interval,
         tensorboard=spec.tensorboard,
     )
-    config = {
-        **dataclasses.asdict(spec),
-        "teachers": [t.name for t in teachers],
-        "teacher_kinds": spec.resolved_teachers(domain),
-        "preset": spec.resolved_preset(),
-        "hyperparameters": {"n_envs": n_envs, **hp},
-    }
-    if not resume:
+    if not resume:  # a resumed run keeps the config.yaml it was started with
+        config = {
+            **dataclasses.asdict(spec),
+            "teachers": [t.name for t in teachers],
+            "teacher_kinds": spec.resolved_teachers(domain),
+            "preset": spec.resolved_preset(),
+            "hyperparameters": {"n_envs": n_envs, **hp},
+        }
         (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
 
     algo_cls = get_algorithm(spec.algo)
@@ -348,7 +358,7 @@ def _train_locked(
     eval_rows: list[tuple[int, float, float, int]] = []
     eval_file = out / "eval.csv"
     if resume:
-        model = algo_cls.load(out / "checkpoint.pt", env=venv, teachers=teachers, resume=True)
+        model = algo_cls.load(out / CHECKPOINT, env=venv, teachers=teachers, resume=True)
         model.recorder = recorder
         recorder.load_window_state(meta["recorder"])
         eval_rows = [tuple(r) for r in meta["eval_rows"]]  # type: ignore[misc]
@@ -372,20 +382,20 @@ def _train_locked(
     next_checkpoint = meta.get("next_checkpoint", checkpoint_every if exact else None)
 
     def save_checkpoint(timestep: int) -> None:
-        """The model with its training state, then (last, atomically) what the run folder's
-        writers need to continue: a crash at any moment leaves the previous checkpoint whole."""
+        """The model with its training state and what the run folder's writers need to
+        continue, in ONE file written atomically: a crash at any moment leaves the previous
+        checkpoint whole (the writers flush every row, so the CSVs are at least that far)."""
         if not exact:
             model.save(out / "checkpoint")
             return
-        model.save(out / "checkpoint", training_state=True)  # the writers flush every row
-        state = {
+        run_state = {
             "num_timesteps": timestep,
-            "eval_rows": eval_rows,
+            "eval_rows": [list(r) for r in eval_rows],
             "next_eval": next_eval,
             "next_checkpoint": next_checkpoint,
             "recorder": recorder.window_state(),
         }
-        atomic_write_text(out / CHECKPOINT_META, json.dumps(state))
+        model.save(out / "checkpoint", training_state=True, run_state=run_state)
 
     def callback(algo: Any) -> bool:
         nonlocal next_eval, next_checkpoint
@@ -410,7 +420,7 @@ def _train_locked(
     model.save(out / "model")
     if not eval_rows or eval_rows[-1][0] != model.num_timesteps:
         evaluate(model.num_timesteps)
-    for name in ("checkpoint.pt", "checkpoint.zip", CHECKPOINT_META):
+    for name in (CHECKPOINT, "checkpoint.zip"):
         (out / name).unlink(missing_ok=True)
     result = {
         "finished": True,

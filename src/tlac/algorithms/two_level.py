@@ -993,13 +993,20 @@ class TLAC:
         return " | ".join(parts)
 
     # ----------------------------------------------------------------- persistence
-    def save(self, path: str | Path, training_state: bool = False) -> Path:
+    def save(
+        self,
+        path: str | Path,
+        training_state: bool = False,
+        run_state: dict[str, Any] | None = None,
+    ) -> Path:
         """Save the networks, optimizer and settings (never the teachers) to ``path`` (.pt).
 
         ``training_state``: also everything that training needs to continue exactly as if it
         had never stopped (random-number generators, the teachers' generators, the advice
         buffer, the solo statistics and the environments with their episodes in progress);
-        ``load(..., resume=True)`` restores it. Such a file is larger (the advice buffer)."""
+        ``load(..., resume=True)`` restores it. Such a file is larger (the advice buffer).
+        ``run_state``: plain data saved alongside under ``"run"`` (``tlac.run``: what the run
+        folder's writers need to continue), in the same file so that both change together."""
         path = checkpoint_path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         state = {
@@ -1016,6 +1023,8 @@ class TLAC:
         }
         if training_state:
             state["training"] = self._training_state()
+        if run_state is not None:
+            state["run"] = run_state
         tmp = path.with_name(path.name + ".tmp")
         torch.save(state, tmp)
         tmp.replace(path)
