@@ -219,6 +219,15 @@ def _check_number(algo: str, name: str, value: Any, integer: bool) -> None:
         raise _type_error(algo, name, "> 0", value)
 
 
+def _check_schedule(algo: str, name: str, value: dict[str, Any]) -> None:
+    """``{linear: [start, end]}`` with two finite end points (> 0 where the setting must be)."""
+    points = value.get("linear") if len(value) == 1 else None
+    if not isinstance(points, list | tuple) or len(points) != 2:
+        raise _type_error(algo, name, "a number or {linear: [start, end]}", value)
+    for point in points:
+        _check_number(algo, name, point, integer=False)
+
+
 def check_setting_types(cls: type, values: dict[str, Any], algo: str) -> None:
     """Check every given setting against the type annotation of the dataclass field of the
     same name: booleans are ``true``/``false`` (not strings or numbers), integers are whole,
@@ -257,11 +266,7 @@ def check_setting_types(cls: type, values: dict[str, Any], algo: str) -> None:
         elif hint is int or text in ("int", "int | None", "typing.Optional[int]"):
             _check_number(algo, name, value, integer=True)
         elif isinstance(value, dict) and "dict" in text:
-            points = value.get("linear") if len(value) == 1 else None
-            if not isinstance(points, list | tuple) or len(points) != 2:
-                raise _type_error(algo, name, "a number or {linear: [start, end]}", value)
-            for point in points:
-                _check_number(algo, name, point, integer=False)
+            _check_schedule(algo, name, value)
         elif "float" in text:
             _check_number(algo, name, value, integer=False)
         elif "list[int]" in text:
@@ -278,8 +283,7 @@ def check_plain_numbers(values: dict[str, Any], algo: str) -> None:
     settings of :data:`POSITIVE_SETTINGS` are > 0, and schedules' end points likewise."""
     for name, value in values.items():
         if isinstance(value, dict) and set(value) == {"linear"}:
-            for point in value["linear"] if isinstance(value["linear"], list | tuple) else [None]:
-                _check_number(algo, name, point, integer=False)
+            _check_schedule(algo, name, value)
         elif isinstance(value, int | float) and not isinstance(value, bool):
             _check_number(algo, name, value, integer=False)
 
