@@ -303,8 +303,8 @@ def check_observations(obs: Any, space: gym.Space) -> tuple[np.ndarray, bool]:
     try:
         array = np.asarray(obs)  # the caller's dtype is kept: teachers get what they expect
     except (TypeError, ValueError):  # ragged nested lists
-        array = np.asarray([object()])
-    if array.dtype.kind not in "biuf":
+        array = None
+    if array is None or array.dtype.kind not in "biuf":
         raise ConfigError(
             f"predict: expected numeric observations of shape {space.shape}, got {type(obs).__name__}"
         )

@@ -482,6 +482,10 @@ class TLAC:
         if cfg.solo_budget and self.n_teachers:
             self.solo = SoloEpisodes(getattr(self, "n_envs", 1), cfg.solo_budget, self.seed)
         self._sde_noise: np.ndarray | None = None
+        # (origin, horizon) of the schedules: of the learn call in progress or last made
+        # (None before any), and of an interrupted call, set by a resume
+        self._schedule: tuple[int, int] | None = None
+        self._resumed_schedule: tuple[int, int] | None = None
         self._ent_coefs = torch.tensor(
             [  # [low, high]
                 cfg.ent_coef if cfg.ent_coef_low is None else cfg.ent_coef_low,
@@ -941,7 +945,7 @@ class TLAC:
         end_steps = start_steps + int(total_timesteps)
         # the schedules' clock: this call's steps, or, right after a resume, the interrupted
         # call's (so that a resumed run follows the same linear schedules as an uninterrupted one)
-        origin, horizon = getattr(self, "_resumed_schedule", None) or (start_steps, total_timesteps)
+        origin, horizon = self._resumed_schedule or (start_steps, total_timesteps)
         self._resumed_schedule = None
         self._schedule = (origin, horizon)
         episodes = find_episode_recorder(self.env)
@@ -1057,7 +1061,7 @@ class TLAC:
             "sde_noise": tensor(self._sde_noise),
             "teachers": [generator_states(t) for t in self.teachers],
             "env": vec_env_state(self.env),
-            "schedule": list(getattr(self, "_schedule", (self.num_timesteps, 1))),
+            "schedule": None if self._schedule is None else list(self._schedule),
         }
 
     def _load_training_state(self, state: dict[str, Any]) -> None:
@@ -1086,7 +1090,8 @@ class TLAC:
         for teacher, states in zip(self.teachers, state["teachers"], strict=True):
             restore_generator_states(teacher, states)
         restore_vec_env(self.env, state["env"])
-        self._resumed_schedule = tuple(state["schedule"])
+        schedule = state["schedule"]
+        self._resumed_schedule = None if schedule is None else (int(schedule[0]), int(schedule[1]))
 
     @classmethod
     def load(
