@@ -292,7 +292,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--resume",
         metavar="RUN",
         default=None,
-        help="continue the unfinished TL-AC run RUN from its last checkpoint (other flags "
+        help="continue the unfinished run RUN (TL-AC, DQN-TLQL, AC-Teach) from its last checkpoint (other flags "
         "except --no-progress and --checkpoint-every are taken from RUN/config.yaml)",
     )
     train.add_argument(
@@ -300,7 +300,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=positive_int,
         default=50_000,
         metavar="N",
-        help="TL-AC: save a checkpoint with the full training state every N steps (default 50000)",
+        help="save a checkpoint every N steps (TL-AC, DQN-TLQL, AC-Teach: with the full "
+        "training state, for an exact resume; default 50000)",
     )
     train.add_argument(
         "--force",

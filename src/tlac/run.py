@@ -39,7 +39,8 @@ SELECTORS = ("learned", "random", "ucb1")
 RESULT_FILE = "result.json"
 CHECKPOINT = "checkpoint.pt"
 CHECKPOINT_EVERY = 50_000
-"""Steps between the checkpoints of a TL-AC run (with its training state: exact resume)."""
+"""Steps between the checkpoints of a run (TL-AC, DQN-TLQL and AC-Teach save their training
+state in them: exact resume)."""
 LOCK_FILE = ".run.lock"
 RUN_FILES = (
     "episodes.csv",
@@ -239,7 +240,7 @@ def train_run(
     """Train one run described by ``spec`` and write its run folder; returns ``result.json``'s
     content. Every setting is checked before anything is written. An unfinished run of the
     same settings at ``out_dir`` (no ``result.json``) continues from its last checkpoint when
-    it has one with the training state (TL-AC), else is redone from scratch; with
+    it has one with the training state (TL-AC, DQN-TLQL, AC-Teach), else is redone from scratch; with
     ``replace=False`` (``tlac train`` without ``--force``) a finished run or a folder holding
     anything else is refused (:func:`check_out_folder`). The folder is locked while the run
     writes it. ``on_eval(timestep, student_alone_mean, training_return)`` is called after
@@ -271,7 +272,7 @@ def resume_run(
     checkpoint_every: int | None = CHECKPOINT_EVERY,
 ) -> dict[str, Any]:
     """Continue the unfinished run in ``run_dir`` from its last checkpoint (``tlac train
-    --resume``). With TL-AC the continuation is exact: the run files end byte-identical to an
+    --resume``). With TL-AC, DQN-TLQL and AC-Teach the continuation is exact: the run files end byte-identical to an
     uninterrupted run's (the rows written after the checkpoint are dropped and redone)."""
     out = Path(run_dir)
     config = load_run_config(out)
@@ -280,7 +281,7 @@ def resume_run(
     meta = _checkpoint_run_state(out)
     if meta is None:
         raise ConfigError(
-            f"{str(out)!r} has no checkpoint to resume from (TL-AC runs write one every "
+            f"{str(out)!r} has no checkpoint to resume from (TL-AC, DQN-TLQL and AC-Teach runs write one every "
             "--checkpoint-every steps)"
         )
     fields = {f.name for f in dataclasses.fields(RunSpec)}
@@ -354,7 +355,8 @@ def _train_locked(
     algo_cls = get_algorithm(spec.algo)
     if spec.algo == "tlac":
         hp = {**hp, "preset": None}  # hp is the resolved preset already
-    exact = spec.algo == "tlac"  # the algorithms whose checkpoints hold the training state
+    # the algorithms whose checkpoints hold the training state (save(training_state=True))
+    exact = bool(getattr(algo_cls, "exact_resume", False))
     eval_rows: list[tuple[int, float, float, int]] = []
     eval_file = out / "eval.csv"
     if resume:

@@ -32,7 +32,6 @@ Choices are numbered like every tlac algorithm: teachers ``0..N-1``, the learner
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 from collections.abc import Callable
@@ -50,15 +49,21 @@ from torch import nn
 from tlac.algorithms.common import (
     check_observations,
     check_seed,
-    checkpoint_path,
     config_from_kwargs,
     flat_obs,
     linear_epsilon,
     make_progress_bar,
     polyak_update,
     real_next_obs,
-    safe_torch_load,
     stop_if_not_finite,
+)
+from tlac.algorithms.off_policy import (
+    ReplayBuffer,
+    check_env_spaces,
+    load_checkpoint,
+    restore_training_state,
+    save_checkpoint,
+    schedule_progress,
 )
 from tlac.errors import ConfigError
 from tlac.recording import Recorder
@@ -335,6 +340,9 @@ class ACTeach:
     """AC-Teach: DDPG (or, for Discrete actions, a Q-learning adaptation) with a Bayesian
     critic and Thompson sampling with commitment over the learner and the teachers."""
 
+    algo = "ac-teach"
+    exact_resume = True  # save(training_state=True) / load(resume=True)
+
     @classmethod
     def check_hyperparameters(cls, hyperparameters: dict[str, Any]) -> ACTeachConfig:
         """The validated settings; a bad one raises ConfigError naming it."""
@@ -400,8 +408,19 @@ class ACTeach:
         self.weight_decay = dropout_weight_decay(
             cfg.dropout_keep_prob, cfg.length_scale, cfg.dataset_size, cfg.dropout_tau
         )
-        self._buffer: dict[str, np.ndarray] | None = None
-        self._buf_pos, self._buf_full = 0, False
+        self.buffer: ReplayBuffer | None = None  # allocated by the first learn call
+        # the learn loop's state, kept across learn calls and saved with the training state
+        self._last_obs: np.ndarray | None = None
+        self._teacher_acts: np.ndarray | None = None  # the teachers' advice at _last_obs
+        self._current: np.ndarray | None = None  # per env: the followed policy, -1 at a start
+        self._declined: np.ndarray | None = None  # per env: switches declined in a row
+        self._switches = 0
+        self._cycle_start: int | None = None
+        self._next_log: int | None = None
+        self._losses: dict[str, float] = {}
+        # the exploration schedule's clock (see tlac.algorithms.off_policy.schedule_progress)
+        self._schedule: tuple[int, int] | None = None
+        self._resumed_schedule: tuple[int, int] | None = None
 
     # ---- action scaling (continuous): the networks work in [-1, 1]
     def _to_unit(self, actions: np.ndarray) -> np.ndarray:
@@ -417,31 +436,23 @@ class ACTeach:
         return obs if c is None else obs.clamp(-c, c)
 
     # ---- replay buffer
-    def _init_buffer(self) -> None:
-        cap, n_t = self.config.buffer_size, self.n_teachers
+    def new_buffer(self) -> ReplayBuffer:
+        """An empty replay buffer of ``buffer_size`` transitions, with the teachers' advice at
+        the next state (for the meta target), asked once at collection time."""
+        n_t = self.n_teachers
         act_shape: tuple[int, ...] = () if self.discrete else (self.action_dim,)
         act_dtype = np.int64 if self.discrete else np.float32
-        self._buffer = {
-            "obs": np.zeros((cap, self.obs_dim), np.float32),
-            "next_obs": np.zeros((cap, self.obs_dim), np.float32),
-            "action": np.zeros((cap, *act_shape), act_dtype),
-            "reward": np.zeros(cap, np.float32),
-            "terminated": np.zeros(cap, np.float32),
-            # the teachers' advice at s' (for the meta target), asked once at collection time
-            "teacher_next": np.zeros((cap, n_t, *act_shape), act_dtype),
-        }
-
-    def _store(self, **rows: np.ndarray) -> None:
-        assert self._buffer is not None
-        n = len(rows["reward"])
-        idx = (self._buf_pos + np.arange(n)) % self.config.buffer_size
-        for k, v in rows.items():
-            self._buffer[k][idx] = v
-        self._buf_full |= self._buf_pos + n >= self.config.buffer_size
-        self._buf_pos = int((self._buf_pos + n) % self.config.buffer_size)
-
-    def _buffer_len(self) -> int:
-        return self.config.buffer_size if self._buf_full else self._buf_pos
+        return ReplayBuffer(
+            self.config.buffer_size,
+            {
+                "obs": ((self.obs_dim,), np.float32),
+                "next_obs": ((self.obs_dim,), np.float32),
+                "action": (act_shape, act_dtype),
+                "reward": ((), np.float32),
+                "terminated": ((), np.float32),
+                "teacher_next": ((n_t, *act_shape), act_dtype),
+            },
+        )
 
     # ---- acting
     def _teacher_actions(self, obs: np.ndarray) -> np.ndarray:
@@ -569,9 +580,8 @@ class ACTeach:
 
     def _train_step(self) -> dict[str, float]:
         cfg = self.config
-        assert self._buffer is not None
-        idx = self.rng.integers(0, self._buffer_len(), size=cfg.batch_size)
-        batch = {k: torch.as_tensor(v[idx]) for k, v in self._buffer.items()}
+        assert self.buffer is not None
+        batch = self.buffer.sample(self.rng, cfg.batch_size)
         batch["obs"] = self._clip_obs(batch["obs"])
         batch["next_obs"] = self._clip_obs(batch["next_obs"])
         y = self._critic_target(batch)
@@ -623,20 +633,25 @@ class ACTeach:
             raise ConfigError(
                 f"ac-teach: the model was built for {self.n_teachers} teachers, got {len(self.teachers)}"
             )
-        if self._buffer is None:
-            self._init_buffer()
+        if self.buffer is None:
+            self.buffer = self.new_buffer()
         cfg, env, n = self.config, self.env, self.env.num_envs
         start, end = self.num_timesteps, self.num_timesteps + int(total_timesteps)
-        self._current = np.full(n, -1, dtype=np.int64)  # -1: episode start, no policy followed yet
-        self._declined = np.zeros(n, dtype=np.int64)
-        self._switches = 0
-        obs = flat_obs(env.reset(), n)
-        teacher_acts = self._teacher_actions(obs)
-        t0, next_log = time.time(), self.num_timesteps
-        cycle_start, losses = self.num_timesteps, {}
+        self._schedule = self._resumed_schedule or (start, int(total_timesteps))
+        self._resumed_schedule = None
+        if self._last_obs is None:
+            self._current = np.full(n, -1, dtype=np.int64)
+            self._declined = np.zeros(n, dtype=np.int64)
+            self._last_obs = flat_obs(env.reset(), n)
+            self._teacher_acts = self._teacher_actions(self._last_obs)
+        if self._cycle_start is None:
+            self._cycle_start = self.num_timesteps
+        if self._next_log is None:
+            self._next_log = self.num_timesteps
+        obs, teacher_acts, t0 = self._last_obs, self._teacher_acts, time.time()
         bar = make_progress_bar(total_timesteps, "AC-Teach", progress_bar)
         while self.num_timesteps < end:
-            progress = (self.num_timesteps - start) / max(1, end - start)
+            progress = schedule_progress(self.num_timesteps, self._schedule)
             eps = linear_epsilon(
                 progress,
                 cfg.exploration_initial_eps,
@@ -655,7 +670,7 @@ class ACTeach:
             if dones.any() and self.n_teachers and cfg.meta_target:
                 d = np.flatnonzero(dones)
                 teacher_next[d] = self._teacher_actions(real_next[d])
-            self._store(
+            self.buffer.add(
                 obs=obs,
                 next_obs=real_next,
                 action=unit_actions,
@@ -668,27 +683,31 @@ class ACTeach:
             self._current[dones] = -1  # AC-Teach resets the followed policy at each episode start
             self._declined[dones] = 0
             obs, teacher_acts = new_obs, new_teacher_acts
+            self._last_obs, self._teacher_acts = obs, teacher_acts
             self.num_timesteps += n
-            if self.num_timesteps - cycle_start >= cfg.cycle_env_steps or self.num_timesteps >= end:
-                cycle_start = self.num_timesteps
-                if self._buffer_len() >= cfg.batch_size:
+            if (
+                self.num_timesteps - self._cycle_start >= cfg.cycle_env_steps
+                or self.num_timesteps >= end
+            ):
+                self._cycle_start = self.num_timesteps
+                if len(self.buffer) >= cfg.batch_size:
                     step_losses = [self._train_step() for _ in range(cfg.cycle_grad_steps)]
-                    losses = {
+                    self._losses = {
                         k: float(np.mean([s[k] for s in step_losses])) for k in step_losses[0]
                     }
-                if self.recorder is not None and self.num_timesteps >= next_log:
+                if self.recorder is not None and self.num_timesteps >= self._next_log:
                     fps = (self.num_timesteps - start) / max(time.time() - t0, 1e-9)
                     self.recorder.record_metrics(
                         self.num_timesteps,
                         {
-                            **losses,
+                            **self._losses,
                             "rollout/switches": float(self._switches),
                             "rollout/exploration_rate": eps,
                             "time/fps": fps,
                         },
                     )
                     self._switches = 0
-                    next_log = self.recorder.window_end_after(self.num_timesteps)
+                    self._next_log = self.recorder.window_end_after(self.num_timesteps)
                 if bar is not None:
                     bar.update(min(self.num_timesteps, end) - start - bar.n)
                 if callback is not None and callback(self) is False:
@@ -711,50 +730,63 @@ class ACTeach:
                 actions = self._to_env(self.actor(x).numpy())
         return (actions[0] if single else actions), None
 
-    def save(self, path: str | Path) -> None:
-        """``torch.save`` of networks, optimizers, settings and step count to ``path.pt``
-        (teachers and the replay buffer are not saved)."""
-        state: dict[str, Any] = {
-            "critic": self.critic.state_dict(),
-            "critic_target": self.critic_target.state_dict(),
-            "critic_opt": self.critic_opt.state_dict(),
+    def save(
+        self,
+        path: str | Path,
+        training_state: bool = False,
+        run_state: dict[str, Any] | None = None,
+    ) -> Path:
+        """Write networks, optimizers, settings and step count to ``path.pt`` and return that
+        path. ``training_state``: also the replay buffer, the generators, the teachers'
+        generators, the environments and the learn loop's state (the followed policies, the
+        commitment counters, the cycle), so that ``load(..., resume=True)`` continues exactly
+        (``run_state``: plain data for ``tlac.run``, in the same file)."""
+        modules: dict[str, Any] = {
+            "critic": self.critic,
+            "critic_target": self.critic_target,
+            "critic_opt": self.critic_opt,
         }
         if self.actor is not None:
-            state.update(
-                actor=self.actor.state_dict(),
-                actor_target=self.actor_target.state_dict(),
-                actor_opt=self.actor_opt.state_dict(),
+            modules.update(
+                actor=self.actor, actor_target=self.actor_target, actor_opt=self.actor_opt
             )
         space: dict[str, Any] = (
             {"type": "discrete", "n": self.n_actions}
             if self.discrete
             else {"type": "box", "low": self._low.tolist(), "high": self._high.tolist()}
         )
-        torch.save(
-            {
-                "algo": "ac-teach",
-                "config": dataclasses.asdict(self.config),
-                "obs_shape": list(self.observation_space.shape),
-                "action_space": space,
-                "n_teachers": self.n_teachers,
-                "teacher_names": [t.name for t in self.teachers],
-                "num_timesteps": self.num_timesteps,
-                "seed": self.seed,
-                "state": state,
-            },
-            checkpoint_path(path),
-        )
+        loop = None
+        if training_state:
+            loop = {
+                "last_obs": self._last_obs,
+                "teacher_acts": self._teacher_acts,
+                "current": self._current,
+                "declined": self._declined,
+                "switches": self._switches,
+                "cycle_start": self._cycle_start,
+                "next_log": self._next_log,
+                "losses": dict(self._losses),
+            }
+        fields = {
+            "obs_shape": list(self.observation_space.shape),
+            "action_space": space,
+            "n_teachers": self.n_teachers,
+        }
+        return save_checkpoint(self, path, fields, modules, loop, run_state)
 
     @classmethod
     def load(
-        cls, path: str | Path, env: VecEnv | None = None, teachers: list[Any] | None = None
+        cls,
+        path: str | Path,
+        env: VecEnv | None = None,
+        teachers: list[Any] | None = None,
+        resume: bool = False,
     ) -> ACTeach:
         """Rebuild a model written by :meth:`save`; pass ``env`` and the same teachers to
-        continue training (the replay buffer starts empty)."""
-        p = checkpoint_path(path)
-        if not p.exists():
-            raise ConfigError(f"no ac-teach model at {str(p)!r}")
-        data = safe_torch_load(p, "ac-teach model")
+        continue training (the replay buffer starts empty). ``resume``: restore the training
+        state of a file saved with ``training_state=True``, replay buffer included (this
+        unpickles the saved environments: resume your own checkpoints only)."""
+        data = load_checkpoint(path, cls.algo, resume, env)
         obj = cls(
             env=None, teachers=teachers, seed=int(data["seed"]), recorder=None, **data["config"]
         )
@@ -768,8 +800,22 @@ class ACTeach:
         obs_space = gym.spaces.Box(
             -np.inf, np.inf, shape=tuple(data["obs_shape"]), dtype=np.float32
         )
+        check_env_spaces(env, obs_space.shape, action_space, cls.algo)
         obj._setup(obs_space, action_space, int(data["n_teachers"]))
         for name, sd in data["state"].items():
             getattr(obj, name).load_state_dict(sd)
         obj.num_timesteps, obj.env = int(data["num_timesteps"]), env
+        if resume:
+            loop = restore_training_state(obj, data["training"])
+            for name in (
+                "last_obs",
+                "teacher_acts",
+                "current",
+                "declined",
+                "switches",
+                "cycle_start",
+                "next_log",
+            ):
+                setattr(obj, f"_{name}", loop[name])
+            obj._losses = dict(loop["losses"])
         return obj

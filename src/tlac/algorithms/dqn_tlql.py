@@ -26,7 +26,6 @@ Discrete action spaces only; the paper notes DQN-TLQL "does not support continuo
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -43,7 +42,6 @@ from torch import nn
 from tlac.algorithms.common import (
     check_observations,
     check_seed,
-    checkpoint_path,
     config_from_kwargs,
     flat_obs,
     linear_epsilon,
@@ -52,9 +50,16 @@ from tlac.algorithms.common import (
     polyak_update,
     query_teachers,
     real_next_obs,
-    safe_torch_load,
     stop_if_not_finite,
     td_targets,
+)
+from tlac.algorithms.off_policy import (
+    ReplayBuffer,
+    check_env_spaces,
+    load_checkpoint,
+    restore_training_state,
+    save_checkpoint,
+    schedule_progress,
 )
 from tlac.errors import ConfigError
 from tlac.recording import Recorder
@@ -136,6 +141,9 @@ class DQNTLQLConfig:
 class DQNTLQL:
     """DQN Two-Level Q-learning over ``teachers + [agent]`` (see the module docstring)."""
 
+    algo = "dqn-tlql"
+    exact_resume = True  # save(training_state=True) / load(resume=True)
+
     @classmethod
     def check_hyperparameters(cls, hyperparameters: dict[str, Any]) -> DQNTLQLConfig:
         """The validated settings; a bad one raises ConfigError naming it."""
@@ -183,32 +191,31 @@ class DQNTLQL:
         lr = self.config.learning_rate
         self.opt_high = torch.optim.Adam(self.q_high.parameters(), lr=lr)
         self.opt_low = torch.optim.Adam(self.q_low.parameters(), lr=lr)
-        cap = self.config.buffer_size
-        self._buf = {
-            "obs": np.zeros((cap, self.obs_dim), np.float32),
-            "next_obs": np.zeros((cap, self.obs_dim), np.float32),
-            "choice": np.zeros(cap, np.int64),
-            "action": np.zeros(cap, np.int64),
-            "reward": np.zeros(cap, np.float32),
-            "terminated": np.zeros(cap, np.float32),
-        }
-        self._buf_pos, self._buf_full = 0, False
+        self.buffer = self.new_buffer()
+        # the learn loop's state, kept across learn calls and saved with the training state
+        self._last_obs: np.ndarray | None = None
+        self._next_target_update: int | None = None
+        self._next_log: int | None = None
+        self._vec_steps = 0
+        self._metrics: dict[str, float] = {}
+        # the exploration schedule's clock: (first step, steps) of the current learn call,
+        # or of the interrupted call that a resumed model continues
+        self._schedule: tuple[int, int] | None = None
+        self._resumed_schedule: tuple[int, int] | None = None
 
-    # ---- replay buffer
-    def _store(self, **rows: np.ndarray) -> None:
-        n = len(rows["reward"])
-        idx = (self._buf_pos + np.arange(n)) % self.config.buffer_size
-        for k, v in rows.items():
-            self._buf[k][idx] = v
-        self._buf_full |= self._buf_pos + n >= self.config.buffer_size
-        self._buf_pos = int((self._buf_pos + n) % self.config.buffer_size)
-
-    def _buffer_len(self) -> int:
-        return self.config.buffer_size if self._buf_full else self._buf_pos
-
-    def _sample(self, batch_size: int) -> dict[str, torch.Tensor]:
-        idx = self.rng.integers(0, self._buffer_len(), size=batch_size)
-        return {k: torch.as_tensor(v[idx]) for k, v in self._buf.items()}
+    def new_buffer(self) -> ReplayBuffer:
+        """An empty replay buffer of ``buffer_size`` transitions."""
+        return ReplayBuffer(
+            self.config.buffer_size,
+            {
+                "obs": ((self.obs_dim,), np.float32),
+                "next_obs": ((self.obs_dim,), np.float32),
+                "choice": ((), np.int64),
+                "action": ((), np.int64),
+                "reward": ((), np.float32),
+                "terminated": ((), np.float32),
+            },
+        )
 
     # ---- acting
     def _act(self, obs: np.ndarray, eps: float) -> tuple[np.ndarray, np.ndarray]:
@@ -252,7 +259,7 @@ class DQNTLQL:
         cfg = self.config
         losses_h, losses_l = [], []
         for _ in range(gradient_steps):
-            batch = self._sample(cfg.batch_size)
+            batch = self.buffer.sample(self.rng, cfg.batch_size)
             for net, target, opt, key, out in (
                 (self.q_high, self.q_high_target, self.opt_high, "choice", losses_h),
                 (self.q_low, self.q_low_target, self.opt_low, "action", losses_l),
@@ -287,13 +294,20 @@ class DQNTLQL:
             )
         cfg, env, n = self.config, self.env, self.env.num_envs
         start_steps, end_steps = self.num_timesteps, self.num_timesteps + int(total_timesteps)
-        obs = flat_obs(env.reset(), n)
-        next_target_update = self.num_timesteps + cfg.target_update_interval
-        vec_steps, metrics, t0 = 0, {}, time.time()
-        next_log = self.num_timesteps + (self.recorder.log_interval if self.recorder else 0)
+        self._schedule = self._resumed_schedule or (start_steps, int(total_timesteps))
+        self._resumed_schedule = None
+        if self._last_obs is None:
+            self._last_obs = flat_obs(env.reset(), n)
+        if self._next_target_update is None:
+            self._next_target_update = self.num_timesteps + cfg.target_update_interval
+        if self._next_log is None:
+            self._next_log = self.num_timesteps + (
+                self.recorder.log_interval if self.recorder else 0
+            )
+        obs, t0 = self._last_obs, time.time()
         bar = make_progress_bar(total_timesteps, "DQN-TLQL", progress_bar)
         while self.num_timesteps < end_steps:
-            progress = (self.num_timesteps - start_steps) / max(1, end_steps - start_steps)
+            progress = schedule_progress(self.num_timesteps, self._schedule)
             eps = linear_epsilon(
                 progress,
                 cfg.exploration_initial_eps,
@@ -304,7 +318,7 @@ class DQNTLQL:
             new_obs, rewards, dones, infos = env.step(actions)
             new_obs = flat_obs(new_obs, n)
             real_next, terminated = real_next_obs(new_obs, dones, infos)
-            self._store(
+            self.buffer.add(
                 obs=obs,
                 next_obs=real_next.reshape(n, -1),
                 choice=choices,
@@ -314,26 +328,23 @@ class DQNTLQL:
             )
             if self.recorder is not None:
                 self.recorder.record_selections(self.num_timesteps + n, choices, obs)
-            obs = new_obs
+            obs = self._last_obs = new_obs
             self.num_timesteps += n
-            vec_steps += 1
-            if self.num_timesteps >= next_target_update:  # every target_update_interval env steps
+            self._vec_steps += 1
+            if self.num_timesteps >= self._next_target_update:  # every target_update_interval
                 polyak_update(self.q_high, self.q_high_target, cfg.tau)
                 polyak_update(self.q_low, self.q_low_target, cfg.tau)
-                next_target_update += cfg.target_update_interval
-            if vec_steps % cfg.train_freq == 0:
-                if (
-                    self.num_timesteps >= cfg.learning_starts
-                    and self._buffer_len() >= cfg.batch_size
-                ):
-                    metrics = self._train(cfg.gradient_steps)
-                if self.recorder is not None and self.num_timesteps >= next_log:
+                self._next_target_update += cfg.target_update_interval
+            if self._vec_steps % cfg.train_freq == 0:
+                if self.num_timesteps >= cfg.learning_starts and len(self.buffer) >= cfg.batch_size:
+                    self._metrics = self._train(cfg.gradient_steps)
+                if self.recorder is not None and self.num_timesteps >= self._next_log:
                     fps = (self.num_timesteps - start_steps) / max(time.time() - t0, 1e-9)
                     self.recorder.record_metrics(
                         self.num_timesteps,
-                        {**metrics, "rollout/exploration_rate": eps, "time/fps": fps},
+                        {**self._metrics, "rollout/exploration_rate": eps, "time/fps": fps},
                     )
-                    next_log = self.recorder.window_end_after(self.num_timesteps)
+                    self._next_log = self.recorder.window_end_after(self.num_timesteps)
                 if bar is not None:
                     bar.update(min(self.num_timesteps, end_steps) - start_steps - bar.n)
                 if callback is not None and callback(self) is False:
@@ -352,49 +363,79 @@ class DQNTLQL:
             actions = self.q_low(x).argmax(dim=1).numpy()
         return (actions[0] if single else actions), None
 
-    def save(self, path: str | Path) -> None:
-        """``torch.save`` of the networks, optimizers, settings and step count to ``path.pt``
-        (teachers and the replay buffer are not saved)."""
-        torch.save(
+    def save(
+        self,
+        path: str | Path,
+        training_state: bool = False,
+        run_state: dict[str, Any] | None = None,
+    ) -> Path:
+        """Write the networks, optimizers, settings and step count to ``path.pt`` and return
+        that path. ``training_state``: also the replay buffer, the generators, the teachers'
+        generators, the environments and the learn loop's counters, so that
+        ``load(..., resume=True)`` continues exactly (``run_state``: plain data for
+        ``tlac.run``, in the same file)."""
+        loop = None
+        if training_state:
+            loop = {
+                "last_obs": self._last_obs,
+                "next_target_update": self._next_target_update,
+                "next_log": self._next_log,
+                "vec_steps": self._vec_steps,
+                "metrics": dict(self._metrics),
+            }
+        return save_checkpoint(
+            self,
+            path,
             {
-                "algo": "dqn-tlql",
-                "config": dataclasses.asdict(self.config),
                 "obs_shape": list(self.observation_space.shape),
                 "n_actions": self.n_actions,
                 "n_choices": self.n_choices,
-                "teacher_names": [t.name for t in self.teachers],
-                "num_timesteps": self.num_timesteps,
-                "seed": self.seed,
-                "state": {
-                    "q_high": self.q_high.state_dict(),
-                    "q_low": self.q_low.state_dict(),
-                    "q_high_target": self.q_high_target.state_dict(),
-                    "q_low_target": self.q_low_target.state_dict(),
-                    "opt_high": self.opt_high.state_dict(),
-                    "opt_low": self.opt_low.state_dict(),
-                },
             },
-            checkpoint_path(path),
+            {
+                name: getattr(self, name)
+                for name in (
+                    "q_high",
+                    "q_low",
+                    "q_high_target",
+                    "q_low_target",
+                    "opt_high",
+                    "opt_low",
+                )
+            },
+            loop,
+            run_state,
         )
 
     @classmethod
     def load(
-        cls, path: str | Path, env: VecEnv | None = None, teachers: list[Any] | None = None
+        cls,
+        path: str | Path,
+        env: VecEnv | None = None,
+        teachers: list[Any] | None = None,
+        resume: bool = False,
     ) -> DQNTLQL:
         """Rebuild a model written by :meth:`save`; pass ``env`` (and the same teachers) to
-        continue training."""
-        p = checkpoint_path(path)
-        if not p.exists():
-            raise ConfigError(f"no dqn-tlql model at {str(p)!r}")
-        data = safe_torch_load(p, "dqn-tlql model")
+        continue training. ``resume``: restore the training state of a file saved with
+        ``training_state=True`` (this unpickles the saved environments: resume your own
+        checkpoints only), so that ``learn`` continues exactly where the model stopped."""
+        data = load_checkpoint(path, cls.algo, resume, env)
         obj = cls(
             env=None, teachers=teachers, seed=int(data["seed"]), recorder=None, **data["config"]
         )
         obs_space = gym.spaces.Box(
             -np.inf, np.inf, shape=tuple(data["obs_shape"]), dtype=np.float32
         )
-        obj._setup(obs_space, gym.spaces.Discrete(int(data["n_actions"])), int(data["n_choices"]))
+        action_space = gym.spaces.Discrete(int(data["n_actions"]))
+        check_env_spaces(env, obs_space.shape, action_space, cls.algo)
+        obj._setup(obs_space, action_space, int(data["n_choices"]))
         for name, sd in data["state"].items():
             getattr(obj, name).load_state_dict(sd)
         obj.num_timesteps, obj.env = int(data["num_timesteps"]), env
+        if resume:
+            loop = restore_training_state(obj, data["training"])
+            obj._last_obs = loop["last_obs"]
+            obj._next_target_update = loop["next_target_update"]
+            obj._next_log = loop["next_log"]
+            obj._vec_steps = int(loop["vec_steps"])
+            obj._metrics = dict(loop["metrics"])
         return obj

@@ -352,6 +352,8 @@ class TLAC:
     (what ``tlac train`` passes, having resolved the preset already).
     """
 
+    exact_resume = True  # save(training_state=True) / load(resume=True)
+
     def __init__(
         self,
         env: Any,

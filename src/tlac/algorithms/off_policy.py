@@ -1,0 +1,238 @@
+"""Plumbing shared by the off-policy baselines (DQN-TLQL and AC-Teach): one replay buffer, the
+clock of the exploration schedule, and one checkpoint format with an optional training state
+for exact resume.
+
+A checkpoint is ``torch.save`` of plain data and tensors (``torch.load(weights_only=True)``
+reads it; see :func:`tlac.algorithms.common.safe_torch_load`)::
+
+    {"algo", "config", "num_timesteps", "seed", "teacher_names", "state": {module: state_dict},
+     ...the algorithm's own space fields...,
+     "training": {...}   # only with save(training_state=True): see training_state()
+     "run": {...}}       # only when tlac.run passes its writers' state
+
+The training state holds what :mod:`tlac.algorithms.resume` lists for TL-AC (generators, the
+teachers' generators, the environments with their episodes in progress) plus the replay
+buffer and the learn loop's counters, so that a run stopped and resumed from a checkpoint
+continues byte-identically (``tests/test_off_policy.py``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch
+
+from tlac.algorithms.common import checkpoint_path, safe_torch_load, spaces_match
+from tlac.algorithms.resume import (
+    generator_states,
+    restore_generator_states,
+    restore_vec_env,
+    vec_env_state,
+)
+from tlac.errors import ConfigError
+
+
+class ReplayBuffer:
+    """A ring buffer of named arrays with ``capacity`` rows.
+
+    >>> buf = ReplayBuffer(3, {"obs": ((2,), np.float32), "reward": ((), np.float32)})
+    >>> buf.add(obs=np.ones((2, 2)), reward=np.array([1.0, 2.0]))
+    >>> buf.add(obs=np.zeros((2, 2)), reward=np.array([3.0, 4.0]))  # wraps: overwrites row 0
+    >>> len(buf), buf.arrays["reward"].tolist()
+    (3, [4.0, 2.0, 3.0])
+    >>> batch = buf.sample(np.random.default_rng(0), 4)
+    >>> sorted(batch), tuple(batch["obs"].shape)
+    (['obs', 'reward'], (4, 2))
+    """
+
+    def __init__(self, capacity: int, fields: dict[str, tuple[tuple[int, ...], Any]]):
+        self.capacity = int(capacity)
+        self.arrays = {
+            name: np.zeros((self.capacity, *shape), dtype)
+            for name, (shape, dtype) in fields.items()
+        }
+        self.pos, self.full = 0, False
+
+    def add(self, **rows: np.ndarray) -> None:
+        """Append a batch of rows (every field, first axis the batch)."""
+        n = len(next(iter(rows.values())))
+        idx = (self.pos + np.arange(n)) % self.capacity
+        for name, value in rows.items():
+            self.arrays[name][idx] = value
+        self.full |= self.pos + n >= self.capacity
+        self.pos = int((self.pos + n) % self.capacity)
+
+    def __len__(self) -> int:
+        return self.capacity if self.full else self.pos
+
+    def sample(self, rng: np.random.Generator, batch_size: int) -> dict[str, torch.Tensor]:
+        """``batch_size`` rows drawn uniformly with replacement by ``rng``."""
+        idx = rng.integers(0, len(self), size=batch_size)
+        return {name: torch.as_tensor(a[idx]) for name, a in self.arrays.items()}
+
+    def state(self) -> dict[str, Any]:
+        """The filled rows as tensors, and the write position."""
+        n = len(self)
+        return {
+            "arrays": {name: torch.from_numpy(a[:n].copy()) for name, a in self.arrays.items()},
+            "pos": self.pos,
+            "full": self.full,
+        }
+
+    def restore(self, state: dict[str, Any]) -> None:
+        """Put back what :meth:`state` saved (the same fields and capacity)."""
+        for name, value in state["arrays"].items():
+            if name not in self.arrays or len(value) > self.capacity:
+                raise ConfigError(
+                    f"the checkpoint's replay buffer does not fit this model (field {name!r}, "
+                    f"{len(value)} rows for a capacity of {self.capacity})"
+                )
+            self.arrays[name][: len(value)] = value.numpy()
+        self.pos, self.full = int(state["pos"]), bool(state["full"])
+
+
+def schedule_progress(num_timesteps: int, schedule: tuple[int, int]) -> float:
+    """The share of the schedule's steps done: ``(t - origin) / horizon``, for the linear
+    exploration rate. ``schedule``: (first step, number of steps) of the ``learn`` call that
+    set it, or of the interrupted call that a resumed model continues.
+
+    >>> schedule_progress(1500, (1000, 2000))
+    0.25
+    """
+    origin, horizon = schedule
+    return (num_timesteps - origin) / max(1, horizon)
+
+
+def check_env_spaces(env: Any, obs_shape: tuple[int, ...], action_space: Any, algo: str) -> None:
+    """The environment given to ``load`` has the checkpoint's observation shape and action
+    space (ConfigError naming both otherwise); ``env=None`` passes.
+
+    >>> class Env:
+    ...     observation_space = gym.spaces.Box(0, 1, (3,))
+    ...     action_space = gym.spaces.Discrete(2)
+    >>> check_env_spaces(Env(), (4,), gym.spaces.Discrete(2), "dqn-tlql")
+    Traceback (most recent call last):
+    ...
+    tlac.errors.ConfigError: dqn-tlql: the environment's observations have shape (3,), the model's (4,)
+    """
+    if env is None:
+        return
+    given = tuple(env.observation_space.shape)
+    if int(np.prod(given)) != int(np.prod(obs_shape)):
+        raise ConfigError(
+            f"{algo}: the environment's observations have shape {given}, the model's {tuple(obs_shape)}"
+        )
+    given_act = env.action_space
+    same_box = (
+        isinstance(action_space, gym.spaces.Box)
+        and isinstance(given_act, gym.spaces.Box)
+        and action_space.shape == given_act.shape
+        and np.allclose(action_space.low, given_act.low)
+        and np.allclose(action_space.high, given_act.high)
+    )
+    if not (same_box or spaces_match(action_space, given_act)):
+        raise ConfigError(
+            f"{algo}: the environment's action space {env.action_space} does not match the "
+            f"model's {action_space}"
+        )
+
+
+def _tensor(a: np.ndarray | None) -> torch.Tensor | None:
+    return None if a is None else torch.from_numpy(np.array(a))
+
+
+def _array(t: torch.Tensor | None) -> np.ndarray | None:
+    return None if t is None else t.numpy().copy()
+
+
+def training_state(model: Any, loop: dict[str, Any]) -> dict[str, Any]:
+    """What exact resume needs of an off-policy model: its NumPy generator, torch's global
+    generator (dropout, initialisation), the teachers' generators, the environments, the
+    replay buffer, the exploration schedule's clock and ``loop``, the learn loop's own
+    counters (plain data, arrays as tensors)."""
+    return {
+        "rng": model.rng.bit_generator.state,
+        "torch_rng": torch.get_rng_state(),
+        "teachers": [generator_states(t) for t in model.teachers],
+        "env": vec_env_state(model.env),
+        "buffer": None if model.buffer is None else model.buffer.state(),
+        "schedule": None if model._schedule is None else list(model._schedule),
+        "loop": {k: _tensor(v) if isinstance(v, np.ndarray) else v for k, v in loop.items()},
+    }
+
+
+def restore_training_state(model: Any, state: dict[str, Any]) -> dict[str, Any]:
+    """Put back what :func:`training_state` saved; returns the learn loop's counters (arrays
+    as NumPy arrays) for the algorithm to set."""
+    if len(state["teachers"]) != len(model.teachers):
+        raise ConfigError(
+            f"the checkpoint was saved with {len(state['teachers'])} teachers, "
+            f"got {len(model.teachers)}"
+        )
+    model.rng.bit_generator.state = state["rng"]
+    torch.set_rng_state(state["torch_rng"])
+    for teacher, states in zip(model.teachers, state["teachers"], strict=True):
+        restore_generator_states(teacher, states)
+    restore_vec_env(model.env, state["env"])
+    if state["buffer"] is not None:
+        model.buffer = model.new_buffer()
+        model.buffer.restore(state["buffer"])
+    schedule = state["schedule"]
+    model._resumed_schedule = None if schedule is None else (int(schedule[0]), int(schedule[1]))
+    return {k: _array(v) if isinstance(v, torch.Tensor) else v for k, v in state["loop"].items()}
+
+
+def save_checkpoint(
+    model: Any,
+    path: str | Path,
+    fields: dict[str, Any],
+    modules: dict[str, Any],
+    loop: dict[str, Any] | None,
+    run_state: dict[str, Any] | None,
+) -> Path:
+    """Write ``path.pt``: the common fields, the algorithm's own ``fields``, the state dicts
+    of ``modules``, and, when ``loop`` is given (``save(training_state=True)``), the training
+    state. Returns the file's path."""
+    data: dict[str, Any] = {
+        "algo": model.algo,
+        "config": dataclasses.asdict(model.config),
+        "teacher_names": [t.name for t in model.teachers],
+        "num_timesteps": model.num_timesteps,
+        "seed": model.seed,
+        **fields,
+        "state": {name: m.state_dict() for name, m in modules.items()},
+    }
+    if loop is not None:
+        data["training"] = training_state(model, loop)
+    if run_state is not None:
+        data["run"] = run_state
+    target = checkpoint_path(path)
+    tmp = target.with_name(target.name + ".tmp")
+    torch.save(data, tmp)
+    tmp.replace(target)  # atomic: a crash while writing leaves the previous checkpoint whole
+    return target
+
+
+def load_checkpoint(path: str | Path, algo: str, resume: bool, env: Any) -> dict[str, Any]:
+    """Read a checkpoint written by :func:`save_checkpoint` for ``algo`` (no code runs);
+    one-line ConfigError when it is missing, of another algorithm, or lacks the training
+    state that ``resume`` asks for."""
+    p = checkpoint_path(path)
+    if not p.exists():
+        raise ConfigError(f"no {algo} model at {str(p)!r}")
+    data = safe_torch_load(p, f"{algo} model")
+    if not isinstance(data, dict) or data.get("algo") != algo:
+        found = data.get("algo") if isinstance(data, dict) else None
+        raise ConfigError(f"{str(p)!r} is not a {algo} model file (it holds {found!r})")
+    if resume:
+        if "training" not in data:
+            raise ConfigError(
+                f"{str(p)!r} holds no training state; save it with training_state=True"
+            )
+        if env is None:
+            raise ConfigError("resume=True needs env (the environments are restored into it)")
+    return data
