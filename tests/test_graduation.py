@@ -106,6 +106,24 @@ def test_scaled_squared_error_hand_checked():
     assert got.tolist() == [[pytest.approx(1.0625)]]
 
 
+def test_box_imitation_is_a_gaussian_with_imitation_std_half_widths():
+    """Pendulum's box is [-2, 2] (half-width 2): with imitation_std 0.1 a teacher 0.2 away
+    from the low level's mean costs 0.5 * (0.2 / (0.1 * 2))^2 = 0.5 nats."""
+    env = gym.make("Pendulum-v1")
+    model = TLAC(env, teachers=[lambda obs: np.array([0.0], np.float32)], seed=0)
+    assert model.config.imitation_std == 0.1
+    mean = torch.tensor([[0.5], [-1.0]])
+    advice = torch.tensor([[[0.7], [-1.0]]])  # 1 teacher x 2 states x 1 dim
+    nll = model._advice_nll(mean, torch.zeros(2, 64), advice)
+    assert nll.tolist() == [[pytest.approx(0.5), pytest.approx(0.0)]]
+    wide = TLAC(env, teachers=[lambda obs: np.array([0.0], np.float32)], imitation_std=1.0)
+    assert float(wide._advice_nll(mean, torch.zeros(2, 64), advice)[0, 0]) == pytest.approx(
+        0.5 * (0.2 / 2.0) ** 2
+    )
+    with pytest.raises(ConfigError, match="imitation_std must be > 0"):
+        TLAC(env, imitation_std=0.0)
+
+
 def test_solo_probability_keeps_the_expected_cost_within_budget():
     for c in np.linspace(0.0, 0.999, 50):
         p = solo_probability(float(c), 0.05)
