@@ -59,9 +59,7 @@ from tlac.algorithms.common import (
 )
 from tlac.algorithms.off_policy import (
     ReplayBuffer,
-    check_env_spaces,
-    load_checkpoint,
-    restore_training_state,
+    load_model,
     save_checkpoint,
     schedule_progress,
 )
@@ -336,11 +334,30 @@ class ACTeachConfig:
 
 
 # --------------------------------------------------------------------------- algorithm
+def _action_space(data: dict[str, Any]) -> gym.Space:
+    """The action space a checkpoint describes (plain data)."""
+    space = data["action_space"]
+    if space["type"] == "discrete":
+        return gym.spaces.Discrete(int(space["n"]))
+    return gym.spaces.Box(np.array(space["low"], np.float32), np.array(space["high"], np.float32))
+
+
 class ACTeach:
     """AC-Teach: DDPG (or, for Discrete actions, a Q-learning adaptation) with a Bayesian
     critic and Thompson sampling with commitment over the learner and the teachers."""
 
     algo = "ac-teach"
+    loop_state = (
+        "last_obs",
+        "teacher_acts",
+        "current",
+        "declined",
+        "switches",
+        "cycle_start",
+        "next_log",
+        "losses",
+    )
+    """The learn loop's attributes (``_<name>``) that a training-state checkpoint holds."""
     exact_resume = True  # save(training_state=True) / load(resume=True)
 
     @classmethod
@@ -755,24 +772,12 @@ class ACTeach:
             if self.discrete
             else {"type": "box", "low": self._low.tolist(), "high": self._high.tolist()}
         )
-        loop = None
-        if training_state:
-            loop = {
-                "last_obs": self._last_obs,
-                "teacher_acts": self._teacher_acts,
-                "current": self._current,
-                "declined": self._declined,
-                "switches": self._switches,
-                "cycle_start": self._cycle_start,
-                "next_log": self._next_log,
-                "losses": dict(self._losses),
-            }
         fields = {
             "obs_shape": list(self.observation_space.shape),
             "action_space": space,
             "n_teachers": self.n_teachers,
         }
-        return save_checkpoint(self, path, fields, modules, loop, run_state)
+        return save_checkpoint(self, path, fields, modules, training_state, run_state)
 
     @classmethod
     def load(
@@ -786,36 +791,4 @@ class ACTeach:
         continue training (the replay buffer starts empty). ``resume``: restore the training
         state of a file saved with ``training_state=True``, replay buffer included (this
         unpickles the saved environments: resume your own checkpoints only)."""
-        data = load_checkpoint(path, cls.algo, resume, env)
-        obj = cls(
-            env=None, teachers=teachers, seed=int(data["seed"]), recorder=None, **data["config"]
-        )
-        space = data["action_space"]
-        if space["type"] == "discrete":
-            action_space: gym.Space = gym.spaces.Discrete(int(space["n"]))
-        else:
-            action_space = gym.spaces.Box(
-                np.array(space["low"], np.float32), np.array(space["high"], np.float32)
-            )
-        obs_space = gym.spaces.Box(
-            -np.inf, np.inf, shape=tuple(data["obs_shape"]), dtype=np.float32
-        )
-        check_env_spaces(env, obs_space.shape, action_space, cls.algo)
-        obj._setup(obs_space, action_space, int(data["n_teachers"]))
-        for name, sd in data["state"].items():
-            getattr(obj, name).load_state_dict(sd)
-        obj.num_timesteps, obj.env = int(data["num_timesteps"]), env
-        if resume:
-            loop = restore_training_state(obj, data["training"])
-            for name in (
-                "last_obs",
-                "teacher_acts",
-                "current",
-                "declined",
-                "switches",
-                "cycle_start",
-                "next_log",
-            ):
-                setattr(obj, f"_{name}", loop[name])
-            obj._losses = dict(loop["losses"])
-        return obj
+        return load_model(cls, path, env, teachers, resume, _action_space, "n_teachers")

@@ -55,9 +55,7 @@ from tlac.algorithms.common import (
 )
 from tlac.algorithms.off_policy import (
     ReplayBuffer,
-    check_env_spaces,
-    load_checkpoint,
-    restore_training_state,
+    load_model,
     save_checkpoint,
     schedule_progress,
 )
@@ -142,6 +140,8 @@ class DQNTLQL:
     """DQN Two-Level Q-learning over ``teachers + [agent]`` (see the module docstring)."""
 
     algo = "dqn-tlql"
+    loop_state = ("last_obs", "next_target_update", "next_log", "vec_steps", "metrics")
+    """The learn loop's attributes (``_<name>``) that a training-state checkpoint holds."""
     exact_resume = True  # save(training_state=True) / load(resume=True)
 
     @classmethod
@@ -374,15 +374,6 @@ class DQNTLQL:
         generators, the environments and the learn loop's counters, so that
         ``load(..., resume=True)`` continues exactly (``run_state``: plain data for
         ``tlac.run``, in the same file)."""
-        loop = None
-        if training_state:
-            loop = {
-                "last_obs": self._last_obs,
-                "next_target_update": self._next_target_update,
-                "next_log": self._next_log,
-                "vec_steps": self._vec_steps,
-                "metrics": dict(self._metrics),
-            }
         return save_checkpoint(
             self,
             path,
@@ -402,7 +393,7 @@ class DQNTLQL:
                     "opt_low",
                 )
             },
-            loop,
+            training_state,
             run_state,
         )
 
@@ -418,24 +409,12 @@ class DQNTLQL:
         continue training. ``resume``: restore the training state of a file saved with
         ``training_state=True`` (this unpickles the saved environments: resume your own
         checkpoints only), so that ``learn`` continues exactly where the model stopped."""
-        data = load_checkpoint(path, cls.algo, resume, env)
-        obj = cls(
-            env=None, teachers=teachers, seed=int(data["seed"]), recorder=None, **data["config"]
+        return load_model(
+            cls,
+            path,
+            env,
+            teachers,
+            resume,
+            lambda data: gym.spaces.Discrete(int(data["n_actions"])),
+            "n_choices",
         )
-        obs_space = gym.spaces.Box(
-            -np.inf, np.inf, shape=tuple(data["obs_shape"]), dtype=np.float32
-        )
-        action_space = gym.spaces.Discrete(int(data["n_actions"]))
-        check_env_spaces(env, obs_space.shape, action_space, cls.algo)
-        obj._setup(obs_space, action_space, int(data["n_choices"]))
-        for name, sd in data["state"].items():
-            getattr(obj, name).load_state_dict(sd)
-        obj.num_timesteps, obj.env = int(data["num_timesteps"]), env
-        if resume:
-            loop = restore_training_state(obj, data["training"])
-            obj._last_obs = loop["last_obs"]
-            obj._next_target_update = loop["next_target_update"]
-            obj._next_log = loop["next_log"]
-            obj._vec_steps = int(loop["vec_steps"])
-            obj._metrics = dict(loop["metrics"])
-        return obj

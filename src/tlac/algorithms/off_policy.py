@@ -19,6 +19,7 @@ continues byte-identically (``tests/test_off_policy.py``).
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -149,11 +150,13 @@ def _array(t: torch.Tensor | None) -> np.ndarray | None:
     return None if t is None else t.numpy().copy()
 
 
-def training_state(model: Any, loop: dict[str, Any]) -> dict[str, Any]:
+def training_state(model: Any) -> dict[str, Any]:
     """What exact resume needs of an off-policy model: its NumPy generator, torch's global
     generator (dropout, initialisation), the teachers' generators, the environments, the
-    replay buffer, the exploration schedule's clock and ``loop``, the learn loop's own
-    counters (plain data, arrays as tensors)."""
+    replay buffer, the exploration schedule's clock and the learn loop's own state (the
+    attributes ``_<name>`` for each name in ``model.loop_state``; plain data, arrays as
+    tensors)."""
+    loop = {name: getattr(model, f"_{name}") for name in model.loop_state}
     return {
         "rng": model.rng.bit_generator.state,
         "torch_rng": torch.get_rng_state(),
@@ -165,9 +168,8 @@ def training_state(model: Any, loop: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def restore_training_state(model: Any, state: dict[str, Any]) -> dict[str, Any]:
-    """Put back what :func:`training_state` saved; returns the learn loop's counters (arrays
-    as NumPy arrays) for the algorithm to set."""
+def restore_training_state(model: Any, state: dict[str, Any]) -> None:
+    """Put back what :func:`training_state` saved."""
     if len(state["teachers"]) != len(model.teachers):
         raise ConfigError(
             f"the checkpoint was saved with {len(state['teachers'])} teachers, "
@@ -183,7 +185,8 @@ def restore_training_state(model: Any, state: dict[str, Any]) -> dict[str, Any]:
         model.buffer.restore(state["buffer"])
     schedule = state["schedule"]
     model._resumed_schedule = None if schedule is None else (int(schedule[0]), int(schedule[1]))
-    return {k: _array(v) if isinstance(v, torch.Tensor) else v for k, v in state["loop"].items()}
+    for name, value in state["loop"].items():
+        setattr(model, f"_{name}", _array(value) if isinstance(value, torch.Tensor) else value)
 
 
 def save_checkpoint(
@@ -191,12 +194,12 @@ def save_checkpoint(
     path: str | Path,
     fields: dict[str, Any],
     modules: dict[str, Any],
-    loop: dict[str, Any] | None,
+    training_state_too: bool,
     run_state: dict[str, Any] | None,
 ) -> Path:
     """Write ``path.pt``: the common fields, the algorithm's own ``fields``, the state dicts
-    of ``modules``, and, when ``loop`` is given (``save(training_state=True)``), the training
-    state. Returns the file's path."""
+    of ``modules``, and, with ``training_state_too`` (``save(training_state=True)``), the
+    training state. Returns the file's path."""
     data: dict[str, Any] = {
         "algo": model.algo,
         "config": dataclasses.asdict(model.config),
@@ -206,8 +209,8 @@ def save_checkpoint(
         **fields,
         "state": {name: m.state_dict() for name, m in modules.items()},
     }
-    if loop is not None:
-        data["training"] = training_state(model, loop)
+    if training_state_too:
+        data["training"] = training_state(model)
     if run_state is not None:
         data["run"] = run_state
     target = checkpoint_path(path)
@@ -215,6 +218,35 @@ def save_checkpoint(
     torch.save(data, tmp)
     tmp.replace(target)  # atomic: a crash while writing leaves the previous checkpoint whole
     return target
+
+
+def load_model(
+    cls: Any,
+    path: str | Path,
+    env: Any,
+    teachers: list[Any] | None,
+    resume: bool,
+    action_space: Callable[[dict[str, Any]], gym.Space],
+    setup_count: str,
+) -> Any:
+    """Rebuild a model of ``cls`` from its checkpoint: the settings, the spaces (the
+    observation shape, and ``action_space(data)``), the networks and optimizers, the step
+    count, and with ``resume`` the training state. ``setup_count``: the checkpoint field
+    that ``cls._setup`` takes third (the number of choices or of teachers)."""
+    data = load_checkpoint(path, cls.algo, resume, env)
+    model = cls(
+        env=None, teachers=teachers, seed=int(data["seed"]), recorder=None, **data["config"]
+    )
+    obs_space = gym.spaces.Box(-np.inf, np.inf, shape=tuple(data["obs_shape"]), dtype=np.float32)
+    actions = action_space(data)
+    check_env_spaces(env, obs_space.shape, actions, cls.algo)
+    model._setup(obs_space, actions, int(data[setup_count]))
+    for name, state_dict in data["state"].items():
+        getattr(model, name).load_state_dict(state_dict)
+    model.num_timesteps, model.env = int(data["num_timesteps"]), env
+    if resume:
+        restore_training_state(model, data["training"])
+    return model
 
 
 def load_checkpoint(path: str | Path, algo: str, resume: bool, env: Any) -> dict[str, Any]:
