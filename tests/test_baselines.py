@@ -224,12 +224,12 @@ def test_sb3_baselines_run_save_load(cls, make_env, tmp_path: Path) -> None:
     model.learn(64, callback=lambda algo: calls.append(algo.num_timesteps))
     assert model.num_timesteps >= 64 and calls and calls[0] == 16
     obs = env.reset()
-    actions, state = model.predict(obs)
+    actions, state = model.predict(obs, deterministic=True)
     assert state is None and len(actions) == 2
     model.save(tmp_path / "model")
     assert (tmp_path / "model.zip").exists()
     loaded = cls.load(tmp_path / "model")
-    assert np.allclose(loaded.predict(obs)[0], actions)
+    assert np.allclose(loaded.predict(obs, deterministic=True)[0], actions)
     recorder.close(model.num_timesteps)
     assert "train/" in (tmp_path / "progress.csv").read_text()
 

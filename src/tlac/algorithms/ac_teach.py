@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -46,6 +45,7 @@ import torch.nn.functional as F
 from stable_baselines3.common.vec_env import VecEnv
 from torch import nn
 
+from tlac.algorithms.callbacks import LearnCallbacks, SB3Compat
 from tlac.algorithms.common import (
     check_observations,
     check_seed,
@@ -67,7 +67,6 @@ from tlac.errors import ConfigError
 from tlac.recording import Recorder
 from tlac.teachers.base import ask_teacher
 
-ContractCallback = Callable[[Any], "bool | None"]
 SWITCH_SIGNS = ("paper", "code")
 
 
@@ -342,7 +341,7 @@ def _action_space(data: dict[str, Any]) -> gym.Space:
     return gym.spaces.Box(np.array(space["low"], np.float32), np.array(space["high"], np.float32))
 
 
-class ACTeach:
+class ACTeach(SB3Compat):
     """AC-Teach: DDPG (or, for Discrete actions, a Q-learning adaptation) with a Bayesian
     critic and Thompson sampling with commitment over the learner and the teachers."""
 
@@ -637,11 +636,13 @@ class ACTeach:
     def learn(
         self,
         total_timesteps: int,
-        callback: ContractCallback | None = None,
+        callback: Any = None,
         progress_bar: bool = False,
     ) -> ACTeach:
         """Cycles of ``cycle_env_steps`` environment steps with the behaviour policy, then
-        ``cycle_grad_steps`` gradient steps, for ``total_timesteps`` steps over all envs."""
+        ``cycle_grad_steps`` gradient steps, for ``total_timesteps`` steps over all envs.
+        ``callback``: a function ``f(model)`` run after every cycle (``False`` stops), an SB3
+        ``BaseCallback`` or a list (``tlac.algorithms.callbacks``)."""
         if self.env is None:
             raise ConfigError(
                 "ac-teach: learn() needs an environment; load(path, env=...) to continue training"
@@ -667,6 +668,7 @@ class ACTeach:
             self._next_log = self.num_timesteps
         obs, teacher_acts, t0 = self._last_obs, self._teacher_acts, time.time()
         bar = make_progress_bar(total_timesteps, "AC-Teach", progress_bar)
+        callbacks = LearnCallbacks(callback, self)
         while self.num_timesteps < end:
             progress = schedule_progress(self.num_timesteps, self._schedule)
             eps = linear_epsilon(
@@ -727,17 +729,25 @@ class ACTeach:
                     self._next_log = self.recorder.window_end_after(self.num_timesteps)
                 if bar is not None:
                     bar.update(min(self.num_timesteps, end) - start - bar.n)
-                if callback is not None and callback(self) is False:
+                if not callbacks.after_update():
                     break
+        callbacks.end()
         if bar is not None:
             bar.close()
         return self
 
     # ---- inference and persistence
-    def predict(self, obs: np.ndarray, deterministic: bool = True) -> tuple[np.ndarray, None]:
+    def predict(
+        self,
+        observation: np.ndarray,
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = False,
+    ) -> tuple[np.ndarray, None]:
         """The student alone: the actor's action (continuous) or the critic's greedy action
-        (discrete), without teachers or exploration noise."""
-        batch, single = check_observations(obs, self.observation_space)
+        (discrete), without teachers or exploration noise (SB3's signature; ``deterministic``
+        has no effect, as for SB3's TD3)."""
+        batch, single = check_observations(observation, self.observation_space)
         x = self._clip_obs(torch.as_tensor(flat_obs(batch, len(batch))))
         with torch.no_grad():
             if self.discrete:

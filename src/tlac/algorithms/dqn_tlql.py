@@ -27,7 +27,6 @@ Discrete action spaces only; the paper notes DQN-TLQL "does not support continuo
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
@@ -39,6 +38,7 @@ import torch.nn.functional as F
 from stable_baselines3.common.vec_env import VecEnv
 from torch import nn
 
+from tlac.algorithms.callbacks import LearnCallbacks, SB3Compat
 from tlac.algorithms.common import (
     check_observations,
     check_seed,
@@ -62,7 +62,6 @@ from tlac.algorithms.off_policy import (
 from tlac.errors import ConfigError
 from tlac.recording import Recorder
 
-ContractCallback = Callable[[Any], "bool | None"]
 C = TypeVar("C")
 
 
@@ -136,7 +135,7 @@ class DQNTLQLConfig:
 
 
 # --------------------------------------------------------------------------- algorithm
-class DQNTLQL:
+class DQNTLQL(SB3Compat):
     """DQN Two-Level Q-learning over ``teachers + [agent]`` (see the module docstring)."""
 
     algo = "dqn-tlql"
@@ -279,10 +278,12 @@ class DQNTLQL:
     def learn(
         self,
         total_timesteps: int,
-        callback: ContractCallback | None = None,
+        callback: Any = None,
         progress_bar: bool = False,
     ) -> DQNTLQL:
-        """Collect and update for ``total_timesteps`` environment steps (over all envs)."""
+        """Collect and update for ``total_timesteps`` environment steps (over all envs).
+        ``callback``: a function ``f(model)`` run after every training step (``False``
+        stops), an SB3 ``BaseCallback`` or a list (``tlac.algorithms.callbacks``)."""
         if self.env is None:
             raise ConfigError(
                 "dqn-tlql: learn() needs an environment; load(path, env=...) to continue training"
@@ -306,6 +307,7 @@ class DQNTLQL:
             )
         obs, t0 = self._last_obs, time.time()
         bar = make_progress_bar(total_timesteps, "DQN-TLQL", progress_bar)
+        callbacks = LearnCallbacks(callback, self)
         while self.num_timesteps < end_steps:
             progress = schedule_progress(self.num_timesteps, self._schedule)
             eps = linear_epsilon(
@@ -347,17 +349,25 @@ class DQNTLQL:
                     self._next_log = self.recorder.window_end_after(self.num_timesteps)
                 if bar is not None:
                     bar.update(min(self.num_timesteps, end_steps) - start_steps - bar.n)
-                if callback is not None and callback(self) is False:
+                if not callbacks.after_update():
                     break
+        callbacks.end()
         if bar is not None:
             bar.close()
         return self
 
     # ---- inference and persistence
-    def predict(self, obs: np.ndarray, deterministic: bool = True) -> tuple[np.ndarray, None]:
-        """The student alone: ``argmax_a Q_L(s, a)`` (no teacher, no exploration); one
+    def predict(
+        self,
+        observation: np.ndarray,
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = False,
+    ) -> tuple[np.ndarray, None]:
+        """The student alone: ``argmax_a Q_L(s, a)`` (no teacher, no exploration; SB3's
+        signature, ``deterministic`` has no effect: the student is greedy either way); one
         observation gives one action, a batch gives one per row."""
-        batch, single = check_observations(obs, self.observation_space)
+        batch, single = check_observations(observation, self.observation_space)
         x = torch.as_tensor(flat_obs(batch, len(batch)))
         with torch.no_grad():
             actions = self.q_low(x).argmax(dim=1).numpy()

@@ -214,6 +214,7 @@ def save_checkpoint(
     if run_state is not None:
         data["run"] = run_state
     target = checkpoint_path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
     tmp = target.with_name(target.name + ".tmp")
     torch.save(data, tmp)
     tmp.replace(target)  # atomic: a crash while writing leaves the previous checkpoint whole

@@ -41,6 +41,7 @@ from stable_baselines3.common.logger import KVWriter, Logger
 from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
 from stable_baselines3.common.vec_env import VecEnv
 
+from tlac.algorithms.callbacks import split_callbacks
 from tlac.algorithms.common import check_plain_numbers, stop_if_not_finite
 from tlac.errors import ConfigError
 from tlac.presets import Schedule, make_schedule
@@ -155,16 +156,16 @@ class _RecorderWriter(KVWriter):
 
 
 class _ContractCallback(BaseCallback):
-    """Calls the contract's ``callback(algo) -> bool | None`` at the end of every rollout
+    """Calls the contract's plain callbacks ``f(algo) -> bool | None`` at the end of every rollout
     and re-sets a scheduled PPO ``target_kl``. Returning ``False`` stops training: SB3 still
     updates on the rollout just collected and takes one more environment step (its only
     stopping point is ``on_step``) before it returns."""
 
     def __init__(
-        self, owner: _SB3Baseline, callback: ContractCallback | None, total_timesteps: int
+        self, owner: _SB3Baseline, functions: list[ContractCallback], total_timesteps: int
     ):
         super().__init__()
-        self.owner, self.user_callback, self.total = owner, callback, max(1, total_timesteps)
+        self.owner, self.functions, self.total = owner, functions, max(1, total_timesteps)
         self._stop = False
 
     def _set_target_kl(self) -> None:
@@ -184,8 +185,9 @@ class _ContractCallback(BaseCallback):
         for param in self.model.policy.parameters():
             stop_if_not_finite(param.data, self.owner.name, self.model.num_timesteps, "parameter")
         self._set_target_kl()  # the update that follows uses this rollout's progress
-        if self.user_callback is not None and self.user_callback(self.owner) is False:
-            self._stop = True
+        for f in self.functions:
+            if f(self.owner) is False:
+                self._stop = True
 
 
 class _SB3Baseline:
@@ -236,10 +238,13 @@ class _SB3Baseline:
     def learn(
         self,
         total_timesteps: int,
-        callback: ContractCallback | None = None,
+        callback: Any = None,
         progress_bar: bool = False,
     ) -> _SB3Baseline:
-        """Train for ``total_timesteps`` environment steps with SB3's own loop."""
+        """Train for ``total_timesteps`` environment steps with SB3's own loop. ``callback``:
+        a function ``f(algo)`` run after every rollout (``False`` stops), an SB3
+        ``BaseCallback`` (given SB3's own model) or a list of them."""
+        functions, sb3_callbacks = split_callbacks(callback)
         first = self.model.num_timesteps == 0
         total = int(total_timesteps) + (0 if first else self.num_timesteps)
         kwargs: dict[str, Any] = {}
@@ -249,16 +254,22 @@ class _SB3Baseline:
             kwargs["log_interval"] = max(1, self.recorder.log_interval // per_iteration)
         self.model.learn(
             int(total_timesteps),
-            callback=_ContractCallback(self, callback, total),
+            callback=[_ContractCallback(self, functions, total), *sb3_callbacks],
             progress_bar=progress_bar,
             reset_num_timesteps=first,
             **kwargs,
         )
         return self
 
-    def predict(self, obs: np.ndarray, deterministic: bool = True) -> tuple[np.ndarray, None]:
-        """The policy's actions for a batch of observations (no teacher is involved)."""
-        actions, _ = self.model.predict(obs, deterministic=deterministic)
+    def predict(
+        self,
+        observation: np.ndarray,
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = False,
+    ) -> tuple[np.ndarray, None]:
+        """The policy's actions (no teacher is involved), with SB3's signature and defaults."""
+        actions, _ = self.model.predict(observation, deterministic=deterministic)
         return np.asarray(actions), None
 
     def save(self, path: str | Path) -> None:

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -31,6 +31,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 from torch import nn
 
 from tlac.algorithms import losses
+from tlac.algorithms.callbacks import LearnCallbacks, SB3Compat
 from tlac.algorithms.common import (
     check_observations,
     check_seed,
@@ -349,7 +350,7 @@ def _teacher_label(teacher: Any, index: int) -> str:
     return f"teacher{index}"
 
 
-class TLAC:
+class TLAC(SB3Compat):
     """Two-Level Actor-Critic. ``TLAC(env, teachers, **settings).learn(steps)``.
 
     ``env``: a domain name (``"doorkey"``), a Gymnasium env or an SB3 ``VecEnv``.
@@ -674,14 +675,16 @@ class TLAC:
 
     def predict(
         self,
-        obs: np.ndarray,
+        observation: np.ndarray,
         state: Any = None,
         episode_start: Any = None,
-        deterministic: bool = True,
+        deterministic: bool = False,
     ) -> tuple[np.ndarray, None]:
-        """Actions of the low-level policy alone (no teacher), SB3-style ``(actions, None)``:
-        one observation gives one action, a batch ``(n, *obs_shape)`` gives ``n`` actions."""
-        obs, single = check_observations(obs, self.observation_space)
+        """Actions of the low-level policy alone (no teacher), with SB3's signature and
+        defaults: ``(actions, None)``, sampled unless ``deterministic`` (the greedy student,
+        which tlac's evaluations and targets use); one observation gives one action, a batch
+        ``(n, *obs_shape)`` gives ``n`` actions."""
+        obs, single = check_observations(observation, self.observation_space)
         _, low_out, _, latent = self._act_heads(obs)
         if self.discrete:
             actions = (
@@ -934,12 +937,14 @@ class TLAC:
     def learn(
         self,
         total_timesteps: int,
-        callback: Callable[[TLAC], bool | None] | None = None,
+        callback: Any = None,
         progress_bar: bool = True,
     ) -> TLAC:
         """Train for ``total_timesteps`` more environment steps (over all environments).
 
-        ``callback(model)`` runs after every collect/update iteration; returning ``False`` stops.
+        ``callback``: a function ``f(model)`` run after every collect/update iteration
+        (returning ``False`` stops), an SB3 ``BaseCallback`` (``EvalCallback``,
+        ``CheckpointCallback``...) or a list of them (``tlac.algorithms.callbacks``).
         """
         if (
             not isinstance(total_timesteps, int | np.integer)
@@ -970,6 +975,7 @@ class TLAC:
         next_log = self.recorder.window_end_after(start_steps) if self.recorder else 0
         t0 = time.time()
         last_bar = 0.0
+        callbacks = LearnCallbacks(callback, self)
         while self.num_timesteps < end_steps:
             ro = self.collect()
             usage += np.bincount(ro.choices.reshape(-1), minlength=self.n_choices)
@@ -995,8 +1001,9 @@ class TLAC:
                     last_bar = now
                     bar.set_postfix_str(self._bar_text(episodes, usage), refresh=False)
                     usage[:] = 0
-            if callback is not None and callback(self) is False:
+            if not callbacks.after_update():
                 break
+        callbacks.end()
         if bar is not None:
             bar.set_postfix_str(self._bar_text(episodes, usage), refresh=False)
             bar.close()

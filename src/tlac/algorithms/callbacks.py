@@ -1,0 +1,118 @@
+"""Callbacks for tlac's own learn loops (TL-AC, DQN-TLQL, AC-Teach), as stable-baselines3 users
+pass them: a plain function, an SB3 ``BaseCallback`` (``EvalCallback``, ``CheckpointCallback``,
+``CallbackList``, your own subclass), or a list mixing both.
+
+* A plain function ``f(model) -> bool | None`` runs once after every update (a TL-AC rollout
+  and its epochs, a DQN-TLQL training step, an AC-Teach cycle); ``False`` stops training.
+* An SB3 callback gets SB3's protocol: ``init_callback(model)`` and ``on_training_start`` when
+  ``learn`` starts; after each update ``on_rollout_start``, ``on_step`` once per vectorised
+  environment step of that update, ``on_rollout_end``; ``on_training_end`` at the end. tlac steps the
+  environments inside its own loop, so the ``on_step`` calls of one update come together after
+  it (``model.num_timesteps`` is then the step count after the update): an ``EvalCallback``
+  with ``eval_freq=1000`` evaluates after the update in which the 1000th step fell.
+  ``self.locals`` holds only ``{"self": model}``: callbacks that read the rollout's ``dones`` or
+  ``infos`` from it (``StopTrainingOnMaxEpisodes``) are not supported.
+
+For these, the algorithms offer what SB3 callbacks use of a model (:class:`SB3Compat`):
+``get_env()``, ``get_vec_normalize_env()``, ``logger`` (an SB3 ``Logger``), ``num_timesteps``, ``predict(observation,
+state, episode_start, deterministic)`` and ``save(path)``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.logger import Logger
+
+from tlac.errors import ConfigError
+
+
+class SB3Compat:
+    """What SB3 callbacks ask of a model, for tlac's own algorithms."""
+
+    env: Any
+    _sb3_logger: Logger | None = None
+
+    def get_env(self) -> Any:
+        """The training environments (SB3's name)."""
+        return self.env
+
+    def get_vec_normalize_env(self) -> None:
+        """tlac does not normalise observations with ``VecNormalize`` (SB3 callbacks ask)."""
+        return None
+
+    @property
+    def logger(self) -> Logger:
+        """An SB3 ``Logger`` for callbacks (``EvalCallback`` records its results there); it
+        writes nothing unless you give it output formats with :meth:`set_logger`. tlac's own
+        logs are the run folder's CSVs (``tlac.recording.Recorder``)."""
+        if self._sb3_logger is None:
+            self._sb3_logger = Logger(folder=None, output_formats=[])
+        return self._sb3_logger
+
+    def set_logger(self, logger: Logger) -> None:
+        """Use ``logger`` (for example ``stable_baselines3.common.logger.configure(...)``) for
+        what SB3 callbacks record."""
+        self._sb3_logger = logger
+
+
+def split_callbacks(callback: Any) -> tuple[list[Any], list[BaseCallback]]:
+    """``callback`` (None, one callback or a list) as (plain functions, SB3 callbacks);
+    anything else is a ConfigError naming its type."""
+    items = [] if callback is None else callback
+    if not isinstance(items, list | tuple):
+        items = [items]
+    for item in items:
+        if not (isinstance(item, BaseCallback) or callable(item)):
+            raise ConfigError(
+                "callback must be a function f(model), an SB3 BaseCallback or a list of "
+                f"them; got {type(item).__name__}"
+            )
+    functions = [c for c in items if not isinstance(c, BaseCallback)]
+    return functions, [c for c in items if isinstance(c, BaseCallback)]
+
+
+class LearnCallbacks:
+    """The callbacks of one ``learn`` call (see the module docstring).
+
+    >>> class Model(SB3Compat):
+    ...     env = type("Env", (), {"num_envs": 2})()
+    ...     num_timesteps = 0
+    >>> seen = []
+    >>> callbacks = LearnCallbacks(lambda m: seen.append(m.num_timesteps), Model())
+    >>> model = callbacks.model; model.num_timesteps = 16
+    >>> callbacks.after_update(), seen
+    (True, [16])
+    """
+
+    def __init__(self, callback: Any, model: Any):
+        self.model = model
+        self.functions, self.sb3 = split_callbacks(callback)
+        self._steps_seen = model.num_timesteps
+        for c in self.sb3:
+            c.init_callback(model)
+            c.on_training_start({"self": model}, {})
+
+    def after_update(self) -> bool:
+        """Run every callback after an update; False when one of them asks to stop."""
+        model = self.model
+        vec_steps = max(1, (model.num_timesteps - self._steps_seen) // model.env.num_envs)
+        self._steps_seen = model.num_timesteps
+        go_on = True
+        for c in self.sb3:
+            c.on_rollout_start()
+            for _ in range(vec_steps):
+                if c.on_step() is False:
+                    go_on = False
+                    break
+            c.on_rollout_end()
+        for f in self.functions:
+            if f(model) is False:
+                go_on = False
+        return go_on
+
+    def end(self) -> None:
+        """``on_training_end`` for the SB3 callbacks."""
+        for c in self.sb3:
+            c.on_training_end()
