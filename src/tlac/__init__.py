@@ -14,10 +14,11 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
-__all__ = ["TLAC", "TLACConfig", "__version__"]
+__all__ = ["TLAC", "Domain", "TLACConfig", "__version__", "register_domain"]
 
 if TYPE_CHECKING:
     from tlac.algorithms.two_level import TLAC, TLACConfig
+    from tlac.envs import Domain, register_domain
 
 
 def __getattr__(name: str) -> Any:  # lazy: `import tlac` stays cheap for the CLI
@@ -25,4 +26,18 @@ def __getattr__(name: str) -> Any:  # lazy: `import tlac` stays cheap for the CL
         from tlac.algorithms import two_level
 
         return getattr(two_level, name)
+    if name in ("Domain", "register_domain"):
+        from tlac import envs
+
+        return getattr(envs, name)
     raise AttributeError(f"module 'tlac' has no attribute {name!r}")
+
+
+def _register_gym_ids() -> None:
+    """``gym.make("tlac/DoorKey-v0")`` and the other domains' ids work after ``import tlac``."""
+    from tlac.envs import register_gym_ids
+
+    register_gym_ids()
+
+
+_register_gym_ids()

@@ -102,7 +102,12 @@ def _cmd_train(args: argparse.Namespace) -> int:
         tensorboard=args.tensorboard,
     )
     domain = spec.validate()
-    out = Path(args.out) if args.out else Path("runs") / f"{spec.env}__{spec.algo}__seed{spec.seed}"
+    # domain.name, not spec.env: a domain given as path/to/file.py:ATTR must not become a path
+    out = (
+        Path(args.out)
+        if args.out
+        else Path("runs") / f"{domain.name}__{spec.algo}__seed{spec.seed}"
+    )
     names = spec.resolved_teachers(domain)
     print(
         f"tlac train: {spec.algo} on {spec.env}, teachers [{', '.join(names) or 'none'}], "

@@ -13,9 +13,12 @@ those domains are used.
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
+import importlib.util
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -59,12 +62,115 @@ _DOMAINS: dict[str, str] = {
 }
 
 
+# Gymnasium ids of the built-in domains: id -> "module:factory" (imported only by gym.make)
+GYM_IDS: dict[str, str] = {
+    "tlac/DoorKey-v0": "tlac.envs.doorkey:make_doorkey_env",
+    "tlac/HopperBullet-v0": "tlac.envs.hopper:make_bullet_env",
+    "tlac/Hopper-v0": "tlac.envs.hopper:make_mujoco_env",
+    "tlac/PickPlace-v0": "tlac.envs.pickplace:make_env",
+}
+
+# domains added with register_domain, by name; and those named "module:attribute", by that
+_USER_DOMAINS: dict[str, Domain] = {}
+_IMPORTED: dict[str, Domain] = {}
+
+
+def register_gym_ids() -> None:
+    """Register every built-in domain with Gymnasium (``gym.make("tlac/DoorKey-v0")``); done
+    by ``import tlac``. The factories are imported only when an id is made."""
+    for env_id, entry_point in GYM_IDS.items():
+        if env_id not in gym.registry:
+            gym.register(id=env_id, entry_point=entry_point)
+
+
+def register_domain(domain: Domain, replace: bool = False) -> Domain:
+    """Add a domain of your own, usable by name from Python (``TLAC("mine", teachers=[...])``),
+    ``tlac train --env`` and experiment configs in this process, and as the Gymnasium id
+    ``tlac/<name>-v0``. A domain without a TL-AC preset gets ``presets/default.yaml`` (the one
+    for users' environments). In another process (``tlac train``, grid workers) name it
+    ``module:attribute`` instead: the module is imported and its Domain used (see
+    docs/architecture.md, "A domain of your own"). Returns the registered domain.
+
+    >>> import gymnasium as gym
+    >>> from tlac.teachers.base import as_teacher
+    >>> def teacher(name, env, seed):
+    ...     return as_teacher(lambda obs: 1, env.action_space, name=name)
+    >>> mine = register_domain(Domain(
+    ...     name="cartpole-push-right", description="CartPole, one silly teacher",
+    ...     make_env=lambda: gym.make("CartPole-v1"), teacher_names=("right",),
+    ...     make_teacher=teacher, default_teachers=("right",)), replace=True)
+    >>> mine.presets["tlac"], get_domain("cartpole-push-right") is mine
+    ('default', True)
+    """
+    if not isinstance(domain, Domain):
+        raise ConfigError(f"register_domain takes a tlac.envs.Domain, got {type(domain).__name__}")
+    if not isinstance(domain.name, str) or not domain.name or ":" in domain.name:
+        raise ConfigError(
+            f"a domain name must be a non-empty string without ':', got {domain.name!r}"
+        )
+    for field_name in ("make_env", "make_teacher"):
+        if not callable(getattr(domain, field_name)):
+            raise ConfigError(f"domain {domain.name!r}: {field_name} must be callable")
+    if not domain.teacher_names or not all(isinstance(t, str) for t in domain.teacher_names):
+        raise ConfigError(
+            f"domain {domain.name!r}: teacher_names must be a non-empty tuple of names"
+        )
+    if domain.name in _DOMAINS or (domain.name in _USER_DOMAINS and not replace):
+        raise ConfigError(
+            f"a domain named {domain.name!r} exists already; pick another name"
+            + ("" if domain.name in _DOMAINS else " or pass replace=True")
+        )
+    if "tlac" not in domain.presets:
+        domain = dataclasses.replace(domain, presets={**domain.presets, "tlac": "default"})
+    _USER_DOMAINS[domain.name] = domain
+    env_id = f"tlac/{domain.name}-v0"
+    if env_id in gym.registry:
+        del gym.registry[env_id]
+    gym.register(id=env_id, entry_point=domain.make_env)
+    return domain
+
+
 def domain_names() -> list[str]:
-    return list(_DOMAINS)
+    """The built-in domains' names and those registered in this process."""
+    return [*_DOMAINS, *_USER_DOMAINS]
+
+
+def _import_domain(spec: str) -> Domain:
+    """``"module:attribute"`` or ``"path/to/file.py:attribute"``: the Domain object
+    ``attribute`` of that module (imported, or executed from the file)."""
+    module_name, _, attr = spec.rpartition(":")
+    try:
+        if module_name.endswith(".py"):  # a file: path/to/my_domain.py:DOMAIN
+            path = Path(module_name)
+            file_spec = importlib.util.spec_from_file_location(path.stem, path)
+            if not path.is_file() or file_spec is None or file_spec.loader is None:
+                raise ImportError("no such file")
+            module = importlib.util.module_from_spec(file_spec)
+            file_spec.loader.exec_module(module)
+        else:
+            module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise ConfigError(f"environment {spec!r}: cannot import {module_name!r} ({exc})") from None
+    domain = getattr(module, attr, None)
+    if not isinstance(domain, Domain):
+        raise ConfigError(
+            f"environment {spec!r}: {module_name}.{attr} is not a tlac.envs.Domain "
+            f"(got {type(domain).__name__})"
+        )
+    _IMPORTED[spec] = register_domain(domain, replace=True)
+    return _IMPORTED[spec]
 
 
 def get_domain(name: str) -> Domain:
-    """Look up a domain by name; raises :class:`UnknownNameError` listing the accepted ones."""
+    """Look up a domain: a built-in or registered name, or ``"module:attribute"`` /
+    ``"path/to/file.py:attribute"`` naming a Domain object; raises :class:`UnknownNameError` listing the
+    accepted names."""
+    if not isinstance(name, str):
+        raise UnknownNameError("environment", repr(name), domain_names())
+    if name in _USER_DOMAINS or name in _IMPORTED:
+        return _USER_DOMAINS.get(name) or _IMPORTED[name]
+    if name not in _DOMAINS and ":" in name:
+        return _import_domain(name)
     if name not in _DOMAINS:
         raise UnknownNameError("environment", name, domain_names())
     module_name, attr = _DOMAINS[name].split(":")

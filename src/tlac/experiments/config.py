@@ -250,7 +250,9 @@ def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
         if required not in top:
             raise f.error(required, "missing (required)")
 
-    domain_name = f.choice("domain", top["domain"], "domain", domain_names())
+    domain_name = top["domain"]
+    if not (isinstance(domain_name, str) and ":" in domain_name):  # "module:attribute": imported
+        domain_name = f.choice("domain", domain_name, "domain", domain_names())
     try:
         domain = get_domain(domain_name)
     except TlacError as exc:
