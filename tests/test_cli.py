@@ -56,6 +56,16 @@ def test_train_then_eval(tmp_path, capsys):
     assert header.startswith("timestep,return,length")
     result = json.loads((out / "result.json").read_text())
     assert result["steps"] >= 600
+    # SB3 / rl-zoo tools read the run folder: monitor.csv holds the same episodes
+    from stable_baselines3.common.monitor import load_results
+
+    monitor = load_results(str(out))
+    episodes = (out / "episodes.csv").read_text().splitlines()[1:]
+    assert len(monitor) == len(episodes) >= 1
+    assert monitor["r"].tolist() == [float(ln.split(",")[1]) for ln in episodes]
+    keys = {ln.split(",")[1] for ln in (out / "progress.csv").read_text().splitlines()[1:]}
+    sb3_keys = {"ep_len_mean", "explained_variance", "clip_fraction", "n_updates"}
+    assert {k.split("/")[1] for k in keys} >= sb3_keys
     capsys.readouterr()
     assert main(["eval", str(out), "--episodes", "3", "--json", "--with-teachers"]) == 0
     printed = json.loads(capsys.readouterr().out)

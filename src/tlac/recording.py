@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import csv
+import json
 import time
 from collections import deque
 from collections.abc import Callable
@@ -20,25 +21,50 @@ from typing import Any
 import numpy as np
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 
+MONITOR_FILE = "monitor.csv"
+"""Written beside episodes.csv in stable-baselines3's Monitor format (a JSON header line, then
+``r,l,t``: return, length, seconds since the start), so that SB3 / rl-zoo tools
+(``stable_baselines3.common.monitor.load_results``) read a run folder."""
+
 
 class EpisodeRecorder(VecEnvWrapper):
-    """Counts environment steps over all sub-environments and records finished episodes."""
+    """Counts environment steps over all sub-environments and records finished episodes:
+    ``path`` (episodes.csv: ``timestep,return,length``) and, beside it, ``monitor.csv``."""
 
     def __init__(self, venv: VecEnv, path: str | Path | None = None, window: int = 20):
         super().__init__(venv)
         self.num_timesteps = 0
         self.episode_returns: deque[float] = deque(maxlen=window)
+        self.episode_lengths: deque[int] = deque(maxlen=window)
         self.episodes_done = 0
         self._returns = np.zeros(self.num_envs)
         self._lengths = np.zeros(self.num_envs, dtype=np.int64)
-        self._file = None
+        self._files: list[Any] = []
         self._writer: Any = None
+        self._monitor: Any = None
+        self._t_start = time.time()
         if path is not None:
-            new = not Path(path).exists()
-            self._file = open(path, "a", newline="")  # noqa: SIM115 - closed in close()
-            self._writer = csv.writer(self._file)
+            path = Path(path)
+            new = not path.exists()
+            self._files.append(open(path, "a", newline=""))  # noqa: SIM115 - closed in close()
+            self._writer = csv.writer(self._files[0])
             if new:
                 self._writer.writerow(["timestep", "return", "length"])
+            self._monitor = self._open_monitor(path.with_name(MONITOR_FILE))
+
+    def _open_monitor(self, path: Path) -> Any:
+        """Open (or continue, keeping its start time) the SB3 Monitor-format file."""
+        if path.exists():
+            try:
+                self._t_start = float(json.loads(path.open().readline()[1:])["t_start"])
+            except (ValueError, KeyError, IndexError):
+                pass  # a damaged header: the times restart from now
+        else:
+            with path.open("w") as f:
+                f.write("#" + json.dumps({"t_start": self._t_start, "env_id": "tlac"}) + "\n")
+                f.write("r,l,t\n")
+        self._files.append(open(path, "a", newline=""))  # noqa: SIM115 - closed in close()
+        return csv.writer(self._files[-1])
 
     def reset(self) -> Any:
         self._returns[:] = 0
@@ -54,25 +80,31 @@ class EpisodeRecorder(VecEnvWrapper):
         for i in np.flatnonzero(dones):
             ret, length = float(self._returns[i]), int(self._lengths[i])
             self.episode_returns.append(ret)
+            self.episode_lengths.append(length)
             self.episodes_done += 1
             infos[i] = dict(infos[i])
             infos[i]["episode"] = {"r": ret, "l": length, "t": time.time()}
             if self._writer is not None:
                 # the step at which this episode ended, counted over all environments
                 self._writer.writerow([self.num_timesteps - self.num_envs + i + 1, ret, length])
+                self._monitor.writerow([ret, length, round(time.time() - self._t_start, 6)])
             self._returns[i] = 0.0
             self._lengths[i] = 0
-        if self._file is not None and dones.any():
-            self._file.flush()
+        if dones.any():
+            for f in self._files:
+                f.flush()
         return obs, rewards, dones, infos
 
     def mean_recent_return(self) -> float:
         return float(np.mean(self.episode_returns)) if self.episode_returns else float("nan")
 
+    def mean_recent_length(self) -> float:
+        return float(np.mean(self.episode_lengths)) if self.episode_lengths else float("nan")
+
     def close(self) -> None:
-        if self._file is not None:
-            self._file.close()
-            self._file = None
+        for f in self._files:
+            f.close()
+        self._files = []
         self.venv.close()
 
 

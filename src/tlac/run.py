@@ -33,7 +33,7 @@ from tlac.envs import Domain, get_domain, make_teachers, parse_teacher_spec
 from tlac.errors import ConfigError, UnknownNameError, read_yaml_file
 from tlac.evaluation import evaluate_student
 from tlac.presets import load_preset
-from tlac.recording import EpisodeRecorder, Recorder
+from tlac.recording import MONITOR_FILE, EpisodeRecorder, Recorder
 
 SELECTORS = ("learned", "random", "ucb1")
 RESULT_FILE = "result.json"
@@ -44,6 +44,7 @@ state in them: exact resume)."""
 LOCK_FILE = ".run.lock"
 RUN_FILES = (
     "episodes.csv",
+    MONITOR_FILE,
     "teacher_usage.csv",
     "progress.csv",
     "eval.csv",
@@ -306,6 +307,18 @@ def _keep_rows_until(path: Path, last_step: int) -> None:
     os.replace(tmp, path)
 
 
+def _keep_monitor_rows(monitor: Path, episodes: Path) -> None:
+    """Keep as many episode rows in ``monitor.csv`` (two header lines) as ``episodes.csv``
+    (one header line) has: the two files hold the same episodes, in the same order."""
+    if not monitor.exists() or not episodes.exists():
+        return
+    n_episodes = len(episodes.read_bytes().splitlines()) - 1
+    lines = monitor.read_bytes().splitlines(keepends=True)
+    tmp = monitor.with_name(monitor.name + ".tmp")
+    tmp.write_bytes(b"".join(lines[: 2 + n_episodes]))
+    os.replace(tmp, monitor)
+
+
 def _train_locked(
     spec: RunSpec,
     out: Path,
@@ -322,6 +335,7 @@ def _train_locked(
     if meta is not None:
         for name in ("episodes.csv", "eval.csv", "progress.csv", "teacher_usage.csv"):
             _keep_rows_until(out / name, int(meta["num_timesteps"]))
+        _keep_monitor_rows(out / MONITOR_FILE, out / "episodes.csv")
     else:
         meta = {}
         _clear_run_folder(out)

@@ -56,6 +56,34 @@ def clipped_policy_losses(
     return loss, _weighted_mean(kl_terms, weights if kl_weights is None else kl_weights)
 
 
+def clip_fractions(
+    log_prob: torch.Tensor,
+    old_log_prob: torch.Tensor,
+    clip_range: float,
+    weights: torch.Tensor | None = None,
+) -> torch.Tensor:
+    """``(L,)``: per level, the share of (weighted) samples whose ratio left the clip range,
+    ``|ratio - 1| > clip_range`` (SB3's ``train/clip_fraction``).
+
+    >>> lp = torch.log(torch.tensor([[1.5, 1.0], [1.1, 0.5]]))
+    >>> clip_fractions(lp, torch.zeros(2, 2), 0.2).tolist()
+    [0.5, 0.5]
+    """
+    outside = (torch.abs(torch.exp(log_prob - old_log_prob) - 1.0) > clip_range).float()
+    return _weighted_mean(outside.detach(), weights)
+
+
+def explained_variance(values: torch.Tensor, returns: torch.Tensor) -> float:
+    """``1 - Var(returns - values) / Var(returns)`` (SB3's ``train/explained_variance``: 1 is a
+    perfect critic, 0 no better than a constant; NaN when the returns do not vary).
+
+    >>> explained_variance(torch.tensor([1.0, 2.0, 3.0]), torch.tensor([1.0, 2.0, 4.0]))
+    0.7857142686843872
+    """
+    var = torch.var(returns)
+    return float("nan") if var == 0 else float(1.0 - torch.var(returns - values) / var)
+
+
 def _weighted_mean(x: torch.Tensor, weights: torch.Tensor | None) -> torch.Tensor:
     """Mean over the last axis, over the rows' weighted samples (0 where a row has none)."""
     if weights is None:

@@ -92,6 +92,7 @@ def vec_env_state(venv: Any) -> dict[str, Any]:
         "returns": torch.from_numpy(np.array(venv._returns)),
         "lengths": torch.from_numpy(np.array(venv._lengths)),
         "episode_returns": [float(r) for r in venv.episode_returns],
+        "episode_lengths": [int(n) for n in venv.episode_lengths],
         "episodes_done": int(venv.episodes_done),
     }
 
@@ -112,6 +113,8 @@ def restore_vec_env(venv: Any, state: dict[str, Any]) -> None:
     venv._lengths[:] = state["lengths"].numpy()
     venv.episode_returns.clear()
     venv.episode_returns.extend(state["episode_returns"])
+    venv.episode_lengths.clear()
+    venv.episode_lengths.extend(state.get("episode_lengths", []))
     venv.episodes_done = state["episodes_done"]
 
 

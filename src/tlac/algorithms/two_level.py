@@ -501,6 +501,7 @@ class TLAC(SB3Compat):
         # (None before any), and of an interrupted call, set by a resume
         self._schedule: tuple[int, int] | None = None
         self._resumed_schedule: tuple[int, int] | None = None
+        self._n_updates = 0  # epochs begun over all updates (SB3's train/n_updates)
         self._ent_coefs = torch.tensor(
             [  # [low, high]
                 cfg.ent_coef if cfg.ent_coef_low is None else cfg.ent_coef_low,
@@ -830,9 +831,11 @@ class TLAC(SB3Compat):
         # the advice cost: the high level pays for every step a teacher acts (graduate variant)
         high_adv_shift = cfg.advice_cost * (1.0 - agent_rows) if cfg.advice_cost else None
         stats: list[torch.Tensor] = []
+        clipped: list[torch.Tensor] = []
         imitation_stats: list[torch.Tensor] = []
         stopped_early = imitation_only = False
         for _epoch in range(cfg.n_epochs):
+            self._n_updates += 1  # epochs begun, as SB3's train/n_updates counts them
             perm = torch.randperm(n, generator=self.generator)
             for start in range(0, n, cfg.batch_size):
                 if imitation_only:  # after the KL stop: the imitation term's steps only
@@ -879,6 +882,14 @@ class TLAC(SB3Compat):
                     loss = loss - (self._ent_coefs[: len(entropies)] * entropies).sum()
                 kl = float(kls.max())
                 stats.append(torch.cat([policy_losses.detach(), vf_loss.detach()[None], kls]))
+                clipped.append(
+                    losses.clip_fractions(
+                        log_probs,
+                        old_log_probs[:, idx],
+                        clip,
+                        None if weights is None else weights[:, idx],
+                    )
+                )
                 if target_kl is not None and kl > 1.5 * target_kl:
                     stopped_early = True  # SB3's rule: stop before a step that moves too far
                     if cfg.imitate_after_stop and advice is not None:
@@ -893,6 +904,13 @@ class TLAC(SB3Compat):
         keys += [f"approx_kl_{lv}" for lv in levels]
         means = torch.stack(stats).mean(0).tolist()
         out = {f"train/{k}": v for k, v in zip(keys, means, strict=True)}
+        # SB3's names for the same quantities (the low level is the student's policy)
+        fractions = torch.stack(clipped).mean(0).tolist()
+        out["train/clip_fraction"] = fractions[0]
+        if len(fractions) > 1:
+            out["train/clip_fraction_high"] = fractions[1]
+        out["train/explained_variance"] = losses.explained_variance(data["values"], data["returns"])
+        out["train/n_updates"] = self._n_updates
         with torch.no_grad():  # entropies of the last minibatch, for the logs
             for lv, h in zip(
                 levels, self._mean_entropies(high_logits, low_out, latent).tolist(), strict=True
@@ -984,13 +1002,18 @@ class TLAC(SB3Compat):
             for k, v in stats.items():
                 window.setdefault(k, []).append(v)
             if self.recorder is not None and self.num_timesteps >= next_log:
-                metrics = {k: float(np.mean(v)) for k, v in window.items()}
+                # the window's mean of each statistic; a count (n_updates) at its end
+                metrics = {
+                    k: float(v[-1] if k == "train/n_updates" else np.mean(v))
+                    for k, v in window.items()
+                }
                 metrics["time/fps"] = (self.num_timesteps - start_steps) / max(
                     time.time() - t0, 1e-9
                 )
                 metrics["time/total_timesteps"] = self.num_timesteps
                 if episodes is not None and episodes.episode_returns:
                     metrics["rollout/ep_rew_mean"] = episodes.mean_recent_return()
+                    metrics["rollout/ep_len_mean"] = episodes.mean_recent_length()
                 self.recorder.record_metrics(self.num_timesteps, metrics)
                 window.clear()
                 next_log = self.recorder.window_end_after(self.num_timesteps)
@@ -1084,6 +1107,7 @@ class TLAC(SB3Compat):
             "teachers": [generator_states(t) for t in self.teachers],
             "env": vec_env_state(self.env),
             "schedule": None if self._schedule is None else list(self._schedule),
+            "n_updates": self._n_updates,
         }
 
     def _load_training_state(self, state: dict[str, Any]) -> None:
@@ -1114,6 +1138,7 @@ class TLAC(SB3Compat):
         restore_vec_env(self.env, state["env"])
         schedule = state["schedule"]
         self._resumed_schedule = None if schedule is None else (int(schedule[0]), int(schedule[1]))
+        self._n_updates = int(state.get("n_updates", 0))
 
     @classmethod
     def load(
