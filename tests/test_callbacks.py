@@ -98,3 +98,30 @@ def test_predict_has_sb3s_signature_and_default() -> None:
     # SB3's default is a sampled action: over many draws both actions appear
     draws = np.stack([model.predict(obs)[0] for _ in range(50)])
     assert len(np.unique(draws)) == 2
+
+
+def test_sb3_style_constructor_arguments(tmp_path: Path, capsys) -> None:
+    import torch
+
+    torch.set_num_threads(2)
+    model = TLAC(
+        cartpole(),
+        teachers=[balance_teacher()],
+        seed=0,
+        verbose=1,
+        tensorboard_log=str(tmp_path / "tb"),
+        device="cpu",
+        **SMALL["tlac"],
+    )
+    model.learn(2048, progress_bar=False)
+    printed = capsys.readouterr().out
+    assert "explained_variance" in printed and "ep_rew_mean" in printed  # SB3 table
+    assert list((tmp_path / "tb" / "TLAC_1").glob("events.out.tfevents.*"))
+    assert torch.get_num_threads() == 1  # learn sets one thread: fastest for small networks
+    for bad, match in [
+        ({"device": "cuda"}, "tlac runs on the CPU"),
+        ({"verbose": "loud"}, "verbose must be 0, 1 or 2"),
+        ({"torch_threads": 0}, "torch_threads must be a positive integer"),
+    ]:
+        with pytest.raises(ConfigError, match=match):
+            TLAC(cartpole(), teachers=[balance_teacher()], **bad)

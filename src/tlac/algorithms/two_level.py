@@ -361,9 +361,20 @@ class TLAC(SB3Compat):
     (as ``tlac train`` uses it), else ``presets/default.yaml`` (measured on users'
     environments, docs/graduation.md); a preset name; or ``None``: TLACConfig's defaults only
     (what ``tlac train`` passes, having resolved the preset already).
+    SB3-style arguments: ``verbose`` (1: print the logged scalars every ``log_interval``
+    steps, as SB3 does), ``tensorboard_log`` (a folder: the same scalars for TensorBoard, in
+    ``TLAC_<n>`` under it), ``device`` (``"auto"`` or ``"cpu"``: tlac's networks are small and
+    it acts in NumPy, so it runs on the CPU; ``"cuda"`` is refused), ``torch_threads`` (the
+    torch threads ``learn`` sets: 1, fastest for [64, 64] networks and right for parallel runs;
+    None leaves torch's setting alone).
     """
 
     exact_resume = True  # save(training_state=True) / load(resume=True)
+    # SB3-style arguments (class defaults, so that TLAC.load has them too)
+    verbose = 0
+    tensorboard_log: str | None = None
+    torch_threads: int | None = 1
+    log_interval = 2000
 
     def __init__(
         self,
@@ -372,8 +383,18 @@ class TLAC(SB3Compat):
         seed: int = 0,
         recorder: Recorder | None = None,
         preset: str | None = "auto",
+        verbose: int = 0,
+        tensorboard_log: str | None = None,
+        device: str = "auto",
+        torch_threads: int | None = 1,
         **settings: Any,
     ):
+        self._check_sb3_arguments(verbose, tensorboard_log, device, torch_threads)
+        self.verbose, self.tensorboard_log, self.torch_threads = (
+            int(verbose),
+            tensorboard_log,
+            torch_threads,
+        )
         if preset == "auto":
             base = domain_preset(env) if isinstance(env, str) else load_preset("default", "tlac")
         else:
@@ -396,6 +417,46 @@ class TLAC(SB3Compat):
         )
         self.num_timesteps = 0
         self._last_obs: np.ndarray | None = None
+
+    @staticmethod
+    def _check_sb3_arguments(
+        verbose: Any, tensorboard_log: Any, device: Any, torch_threads: Any
+    ) -> None:
+        if verbose not in (0, 1, 2) or isinstance(verbose, bool):
+            raise ConfigError(f"verbose must be 0, 1 or 2 (as in SB3), got {verbose!r}")
+        if tensorboard_log is not None and not isinstance(tensorboard_log, str | Path):
+            raise ConfigError(
+                f"tensorboard_log must be a folder path or None, got {tensorboard_log!r}"
+            )
+        if device not in ("auto", "cpu"):
+            raise ConfigError(
+                f"device {device!r}: tlac runs on the CPU ('auto' or 'cpu'); its networks are "
+                "small and acting runs in NumPy, where a GPU would only add transfers"
+            )
+        if torch_threads is not None and (
+            not isinstance(torch_threads, int)
+            or isinstance(torch_threads, bool)
+            or torch_threads < 1
+        ):
+            raise ConfigError(
+                f"torch_threads must be a positive integer or None, got {torch_threads!r}"
+            )
+
+    def _sb3_output(self) -> bool:
+        """Whether ``learn`` writes its scalars to the SB3 logger (verbose or TensorBoard)."""
+        if self.tensorboard_log is not None and getattr(self, "_tb_configured", None) is None:
+            from stable_baselines3.common.logger import configure
+
+            folder = Path(self.tensorboard_log)
+            n = 1 + sum(1 for p in folder.glob("TLAC_*")) if folder.exists() else 1
+            formats = ["tensorboard"] + (["stdout"] if self.verbose else [])
+            self.set_logger(configure(str(folder / f"TLAC_{n}"), formats))
+            self._tb_configured = True
+        elif self.verbose and self._sb3_logger is None:
+            from stable_baselines3.common.logger import configure
+
+            self.set_logger(configure(None, ["stdout"]))
+        return bool(self.verbose or self.tensorboard_log is not None)
 
     # ----------------------------------------------------------------- construction
     def _make_teachers(self, teachers: Sequence[Any], domain: Any, seed: int) -> list[Teacher]:
@@ -990,7 +1051,11 @@ class TLAC(SB3Compat):
         bar = make_progress_bar(int(total_timesteps), "TL-AC", progress_bar)
         usage = np.zeros(self.n_choices)
         window: dict[str, list[float]] = {}
-        next_log = self.recorder.window_end_after(start_steps) if self.recorder else 0
+        sb3_output = self._sb3_output()
+        interval = self.recorder.log_interval if self.recorder else self.log_interval
+        next_log = (start_steps // interval + 1) * interval
+        if self.torch_threads is not None:
+            torch.set_num_threads(self.torch_threads)
         t0 = time.time()
         last_bar = 0.0
         callbacks = LearnCallbacks(callback, self)
@@ -1001,7 +1066,7 @@ class TLAC(SB3Compat):
             stats = self.update(ro, max(progress_remaining, 0.0))
             for k, v in stats.items():
                 window.setdefault(k, []).append(v)
-            if self.recorder is not None and self.num_timesteps >= next_log:
+            if (self.recorder is not None or sb3_output) and self.num_timesteps >= next_log:
                 # the window's mean of each statistic; a count (n_updates) at its end
                 metrics = {
                     k: float(v[-1] if k == "train/n_updates" else np.mean(v))
@@ -1014,9 +1079,14 @@ class TLAC(SB3Compat):
                 if episodes is not None and episodes.episode_returns:
                     metrics["rollout/ep_rew_mean"] = episodes.mean_recent_return()
                     metrics["rollout/ep_len_mean"] = episodes.mean_recent_length()
-                self.recorder.record_metrics(self.num_timesteps, metrics)
+                if self.recorder is not None:
+                    self.recorder.record_metrics(self.num_timesteps, metrics)
+                if sb3_output:
+                    for key, value in metrics.items():
+                        self.logger.record(key, value)
+                    self.logger.dump(self.num_timesteps)
                 window.clear()
-                next_log = self.recorder.window_end_after(self.num_timesteps)
+                next_log = (self.num_timesteps // interval + 1) * interval
             if bar is not None:
                 bar.update(min(self.num_timesteps, end_steps) - bar.n - start_steps)
                 now = time.time()
