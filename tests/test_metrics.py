@@ -145,3 +145,26 @@ def test_reuse_frequency_pools_windows_and_seeds():
     assert left.loc["agent", "count"] == 6
     right = out[out.region == "right"]
     assert right["fraction"].tolist() == [1.0]
+
+
+def test_probability_of_improvement_hand_computed() -> None:
+    # task 1: pairs (3>2, 3>1, 1<2, 1=1) -> (1 + 1 + 0 + 0.5) / 4 = 0.625 ; task 2: 2 > 1 -> 1
+    x, y = [[3.0, 1.0], [2.0]], [[2.0, 1.0], [1.0]]
+    assert m.probability_of_improvement(x, y) == pytest.approx((0.625 + 1.0) / 2)
+    assert m.probability_of_improvement(y, x) == pytest.approx((0.375 + 0.0) / 2)
+    assert m.probability_of_improvement([[1.0, 2.0]], [[1.0, 2.0]]) == pytest.approx(0.5)
+
+
+def test_performance_profile_moving_average_and_bootstrap_band() -> None:
+    assert m.performance_profile([0.2, 0.5, 0.9, 1.0], [0.0, 0.5, 0.95]).tolist() == [
+        1.0,
+        0.5,
+        0.25,
+    ]
+    assert m.moving_average([0.0, 1.0, 2.0, np.nan, 4.0], 2).tolist() == [0.0, 0.5, 1.5, 2.0, 4.0]
+    curves = np.array([[0.0, 1.0], [2.0, 3.0], [4.0, 5.0]])
+    mean, lo, hi = m.bootstrap_mean_ci(curves, reps=4000, seed=1)
+    assert mean.tolist() == [2.0, 3.0]
+    # the bootstrap distribution of a mean of 3 draws from {0, 2, 4}: 2.5% / 97.5% quantiles
+    assert lo[0] == pytest.approx(0.0, abs=0.7) and hi[0] == pytest.approx(4.0, abs=0.7)
+    assert np.all(lo <= mean) and np.all(mean <= hi)

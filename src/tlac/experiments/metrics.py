@@ -21,6 +21,7 @@ included: the paper's "mean training reward", section 4.1).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -246,3 +247,73 @@ def first_step_reaching(timesteps: ArrayLike, values: ArrayLike, target: float) 
     t, v = np.asarray(timesteps, dtype=float), np.asarray(values, dtype=float)
     hit = np.flatnonzero(v >= target)
     return float(t[hit[0]]) if len(hit) else float("nan")
+
+
+def moving_average(curve: ArrayLike, window: int) -> np.ndarray:
+    """Trailing mean over the last ``window`` points (fewer at the start), ignoring NaN; the
+    report smooths each seed's binned curve with it before averaging over seeds.
+
+    >>> moving_average([0.0, 1.0, 2.0, 3.0], 2).tolist()
+    [0.0, 0.5, 1.5, 2.5]
+    """
+    c = np.asarray(curve, dtype=np.float64)
+    out = np.full_like(c, np.nan)
+    for i in range(len(c)):
+        part = c[max(0, i - window + 1) : i + 1]
+        if np.any(~np.isnan(part)):
+            out[i] = np.nanmean(part)
+    return out
+
+
+def bootstrap_mean_ci(
+    curves: ArrayLike, confidence: float = 0.95, reps: int = 2000, seed: int = 0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Mean over seeds of curves ``(seeds, points)`` and its percentile bootstrap interval
+    (seeds resampled with replacement; NaN ignored). With one seed the interval is the mean.
+
+    >>> mean, lo, hi = bootstrap_mean_ci([[0.0, 1.0], [2.0, 3.0]])
+    >>> mean.tolist(), lo.tolist(), hi.tolist()
+    ([1.0, 2.0], [0.0, 1.0], [2.0, 3.0])
+    """
+    c = np.atleast_2d(np.asarray(curves, dtype=np.float64))
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns stay NaN
+        mean = np.nanmean(c, axis=0)
+        rng = np.random.default_rng(seed)
+        idx = rng.integers(0, len(c), size=(reps, len(c)))
+        means = np.nanmean(c[idx], axis=1)  # (reps, points)
+        alpha = (1.0 - confidence) / 2.0
+        lo, hi = np.nanpercentile(means, [100 * alpha, 100 * (1 - alpha)], axis=0)
+    return mean, lo, hi
+
+
+def probability_of_improvement(x: Sequence[ArrayLike], y: Sequence[ArrayLike]) -> float:
+    """P(X > Y) of Agarwal et al. (2021; rliable): for each task, the share of run pairs
+    (one of X, one of Y) where X scores higher, ties counting half (the Mann-Whitney U
+    statistic over the number of pairs); then the mean over tasks.
+
+    >>> probability_of_improvement([[3.0, 1.0]], [[2.0, 1.0]])  # (1 + 1 + 0 + 0.5) / 4
+    0.625
+    >>> probability_of_improvement([[1.0], [0.0]], [[0.0], [1.0]])  # task means 1 and 0
+    0.5
+    """
+    per_task = []
+    for xs, ys in zip(x, y, strict=True):
+        a, b = np.asarray(xs, dtype=np.float64), np.asarray(ys, dtype=np.float64)
+        if len(a) == 0 or len(b) == 0:
+            continue
+        greater = (a[:, None] > b[None, :]).mean()
+        ties = (a[:, None] == b[None, :]).mean()
+        per_task.append(greater + 0.5 * ties)
+    return float(np.mean(per_task)) if per_task else float("nan")
+
+
+def performance_profile(scores: ArrayLike, taus: ArrayLike) -> np.ndarray:
+    """The share of runs whose (normalised) score exceeds each threshold tau (rliable's
+    run-score distribution).
+
+    >>> performance_profile([0.2, 0.5, 0.9, 1.0], [0.0, 0.5, 0.95]).tolist()
+    [1.0, 0.5, 0.25]
+    """
+    s = np.asarray(scores, dtype=np.float64).reshape(-1)
+    return np.array([(s > t).mean() for t in np.asarray(taus, dtype=np.float64)])

@@ -30,23 +30,25 @@ def style(i: int) -> dict[str, object]:
 def plot_curves(
     ax: Axes,
     grid: np.ndarray,
-    curves: Mapping[str, tuple[np.ndarray, np.ndarray]],
+    curves: Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray]],
     references: Mapping[str, float] | None = None,
     title: str = "",
     xlabel: str = "environment steps",
     ylabel: str = "mean training return per episode",
     styles: Mapping[str, int] | None = None,
 ) -> Axes:
-    """Learning curves: for each label, the mean over seeds with a +-1 std band (paper, Figures
-    3-9), and optional horizontal reference lines (each teacher's own return)."""
+    """Learning curves: for each label ``(mean, low, high)``: the mean over seeds and a band
+    (the report uses a 95% bootstrap interval of the mean; the paper's Figures 3-9 show +-1
+    std), and optional horizontal reference lines (each teacher's own return). The legend is
+    the caller's (:func:`legend_outside`)."""
     grid = np.asarray(grid, dtype=np.float64)
     n_markers = 8
-    for i, (label, (mean, std)) in enumerate(curves.items()):
+    for i, (label, (mean, low, high)) in enumerate(curves.items()):
         st = style(styles[label] if styles and label in styles else i)
-        mean, std = np.asarray(mean, dtype=np.float64), np.asarray(std, dtype=np.float64)
+        mean = np.asarray(mean, dtype=np.float64)
         every = max(1, len(grid) // n_markers)
         ax.plot(grid, mean, label=label, linewidth=1.6, markevery=every, markersize=4, **st)
-        ax.fill_between(grid, mean - std, mean + std, color=st["color"], alpha=0.15, linewidth=0)
+        ax.fill_between(grid, low, high, color=st["color"], alpha=0.15, linewidth=0)
     for j, (name, value) in enumerate((references or {}).items()):
         if value is None or not np.isfinite(value):
             continue
@@ -68,6 +70,42 @@ def plot_curves(
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.ticklabel_format(axis="x", style="sci", scilimits=(0, 3))
+    ax.grid(True, color="0.9", linewidth=0.6)
+    return ax
+
+
+def legend_outside(ax: Axes) -> Axes:
+    """The legend below the axes, never over the data."""
+    handles, labels = ax.get_legend_handles_labels()
+    if handles:
+        ax.legend(
+            handles,
+            labels,
+            fontsize=7,
+            loc="upper center",
+            bbox_to_anchor=(0.5, -0.2),
+            ncol=2,
+            frameon=False,
+        )
+    return ax
+
+
+def plot_profiles(
+    ax: Axes,
+    taus: np.ndarray,
+    profiles: Mapping[str, np.ndarray],
+    xlabel: str = "normalised score tau",
+    title: str = "",
+    styles: Mapping[str, int] | None = None,
+) -> Axes:
+    """Performance profiles (rliable): per label, the share of runs scoring above tau."""
+    for i, (label, profile) in enumerate(profiles.items()):
+        st = style(styles[label] if styles and label in styles else i)
+        ax.plot(taus, profile, label=label, linewidth=1.6, markevery=max(1, len(taus) // 8), **st)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("fraction of runs with score > tau")
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_title(title, fontsize=10)
     ax.grid(True, color="0.9", linewidth=0.6)
     return ax
 

@@ -189,6 +189,33 @@ def load_paper_results() -> dict[str, Any]:
     return yaml.safe_load(text)
 
 
+ALGORITHM_NAMES = {
+    "tlac": "TL-AC",
+    "a2c": "A2C",
+    "ppo": "PPO",
+    "dqn-tlql": "DQN-TLQL",
+    "ac-teach": "AC-Teach",
+}
+SELECTOR_NAMES = {"random": "random selection", "ucb1": "UCB1 per episode"}
+SMOOTHING_BINS = 5
+"""Training curves in the figures: each seed's binned curve (``curve_points`` bins over the
+budget) is smoothed by a trailing mean over this many bins before the seeds are averaged."""
+MIN_SEEDS = 5
+"""Cells with fewer finished seeds than this get a warning in the report."""
+
+
+def algorithm_label(config: ExperimentConfig, key: str) -> str:
+    """How a figure names an algorithm entry: its config ``label`` as written, else the
+    algorithm's usual name (with the TL-AC selector when it is not the learned one)."""
+    entry = config.algorithm(key)
+    if entry.key != entry.name and "__" not in entry.key:  # a label from the config
+        return entry.key
+    name = ALGORITHM_NAMES.get(entry.name, entry.name)
+    if entry.selector != "learned":
+        name += f" ({SELECTOR_NAMES.get(entry.selector, entry.selector)})"
+    return name
+
+
 def _label(config: ExperimentConfig, set_key: str) -> str:
     if set_key == NO_TEACHERS:
         return "none (no advice)"
@@ -239,6 +266,15 @@ class _Report:
         curves = [M.binned_curve(*self.episodes(d), self.grid) for d in runs]
         return M.mean_std(np.array(curves))
 
+    def curve_band(self, runs: list[RunData]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For the figures: each seed's binned curve smoothed over SMOOTHING_BINS bins, then
+        the mean over seeds with its 95% bootstrap interval."""
+        curves = [
+            M.moving_average(M.binned_curve(*self.episodes(d), self.grid), SMOOTHING_BINS)
+            for d in runs
+        ]
+        return M.bootstrap_mean_ci(np.array(curves))
+
     def save(self, fig: Any, name: str, caption: str) -> None:
         import matplotlib.pyplot as plt
 
@@ -268,6 +304,19 @@ class _Report:
             f"Student alone = the low-level policy without any teacher "
             f"({c.eval.episodes} episodes per evaluation).",
         ]
+        few = sorted(
+            {
+                f"{_label(c, s)} / {algorithm_label(c, a)} (n={len(self.finished(s, a))})"
+                for s, a in self.cells()
+                if len(self.finished(s, a)) < MIN_SEEDS
+            }
+        )
+        if few:
+            text += [
+                "",
+                f"**Warning: {len(few)} cell(s) have fewer than {MIN_SEEDS} finished seeds**; "
+                "their means, bands and intervals are not reliable: " + "; ".join(few) + ".",
+            ]
         failed = [d for d in self.runs if d.status == "failed"]
         if failed:
             text += ["", "Failed runs:", ""] + [f"- `{d.run.name}`: {d.error}" for d in failed]
@@ -433,6 +482,91 @@ class _Report:
             )
         self.save(fig, "iqm.png", "IQM with 95% stratified-bootstrap confidence intervals")
 
+    def _best_teacher(self, set_key: str) -> float:
+        """The best own return among a teacher set's teachers (NaN if not measured)."""
+        refs = self._references(set_key)
+        return max(refs.values()) if refs else float("nan")
+
+    def comparison_section(self) -> None:
+        """Probability of improvement between the advice algorithms and performance profiles
+        of their scores normalised by each teacher set's best teacher (Agarwal et al. 2021):
+        both compare within a teacher set, so sets with different ceilings are not pooled."""
+        import matplotlib.pyplot as plt
+
+        from tlac.experiments.plots import legend_outside, plot_profiles
+
+        c, summary = self.config, self.summary
+        algos = [a for a in self.advice_algos if len(summary) and (summary.algo == a).any()]
+        if not algos or len(summary) == 0:
+            return
+        cols = (("final_return", "training return"), ("student_final_return", "student alone"))
+        text = ["## Comparisons within teacher sets"]
+        if len(algos) > 1:
+            rows = []
+            for i, x in enumerate(algos):
+                for y in algos[i + 1 :]:
+                    sets = sorted(
+                        set(summary[summary.algo == x].teacher_set)
+                        & set(summary[summary.algo == y].teacher_set)
+                    )
+                    cells = []
+                    for col, _ in cols:
+                        xs = [
+                            summary[(summary.algo == x) & (summary.teacher_set == s)][col].dropna()
+                            for s in sets
+                        ]
+                        ys = [
+                            summary[(summary.algo == y) & (summary.teacher_set == s)][col].dropna()
+                            for s in sets
+                        ]
+                        cells.append(fmt(M.probability_of_improvement(xs, ys)))
+                    rows.append(
+                        [algorithm_label(c, x), algorithm_label(c, y), str(len(sets))] + cells
+                    )
+            text += [
+                "Probability of improvement P(X > Y) (rliable): per teacher set, the share of "
+                "(run of X, run of Y) pairs where X scores higher, ties half; then the mean over "
+                "the teacher sets both ran. 0.5: no difference.",
+                _markdown_table(
+                    [
+                        "X",
+                        "Y",
+                        "teacher sets",
+                        "P(X > Y), final training return",
+                        "P(X > Y), student alone",
+                    ],
+                    rows,
+                ),
+            ]
+        self.sections.append("\n\n".join(text) if len(text) > 1 else text[0])
+        taus = np.linspace(0.0, 1.2, 61)
+        fig, axes = plt.subplots(1, 2, figsize=(10.4, 4.0), squeeze=False)
+        drawn = False
+        for ax, (col, what) in zip(axes.flat, cols, strict=True):
+            profiles, styles = {}, {}
+            for a in algos:
+                part = summary[summary.algo == a]
+                best = part.teacher_set.map(self._best_teacher)
+                scores = (part[col] / best).replace([np.inf, -np.inf], np.nan).dropna()
+                if len(scores):
+                    label = f"{algorithm_label(c, a)} (n={len(scores)})"
+                    profiles[label] = M.performance_profile(scores.to_numpy(float), taus)
+                    styles[label] = self.styles.get(a, 0)
+            plot_profiles(
+                ax, taus, profiles, xlabel=f"{what} / best teacher's return", styles=styles
+            )
+            legend_outside(ax)
+            drawn = drawn or bool(profiles)
+        if drawn:
+            self.save(
+                fig,
+                "profiles.png",
+                "Performance profiles: the share of runs whose final score, divided by the best "
+                "teacher's own return in their teacher set, exceeds tau (rliable)",
+            )
+        else:
+            plt.close(fig)
+
     def _references(self, set_key: str) -> dict[str, float]:
         refs = {}
         if set_key == NO_TEACHERS:
@@ -448,7 +582,7 @@ class _Report:
     ) -> None:
         import matplotlib.pyplot as plt
 
-        from tlac.experiments.plots import plot_curves
+        from tlac.experiments.plots import legend_outside, plot_curves
 
         sets = [s for s in self.set_keys() if any(self.finished(s, a) for a in algos)]
         if not sets:
@@ -457,20 +591,22 @@ class _Report:
         base_runs = self.finished(NO_TEACHERS, c.baseline) if (with_baseline and c.baseline) else []
         ncols = min(len(sets), 2)
         nrows = math.ceil(len(sets) / ncols)
-        fig, axes = plt.subplots(nrows, ncols, figsize=(5.2 * ncols, 3.6 * nrows), squeeze=False)
+        fig, axes = plt.subplots(nrows, ncols, figsize=(5.2 * ncols, 4.3 * nrows), squeeze=False)
         for ax, s in zip(axes.flat, sets, strict=False):
-            curves = {}
+            curves, styles = {}, {}
             for a in algos:
                 runs = self.finished(s, a)
                 if runs:
-                    curves[f"{a} (n={len(runs)})"] = self.mean_curve(runs)
+                    label = f"{algorithm_label(c, a)} (n={len(runs)})"
+                    curves[label], styles[label] = self.curve_band(runs), self.styles[a]
             if base_runs:
-                curves[f"{c.baseline} (no advice, n={len(base_runs)})"] = self.mean_curve(base_runs)
-            styles = {k: self.styles.get(k.split(" ")[0], 0) for k in curves}
+                label = f"{algorithm_label(c, c.baseline)} (no advice, n={len(base_runs)})"
+                curves[label] = self.curve_band(base_runs)
+                styles[label] = self.styles.get(c.baseline, 0)
             plot_curves(
                 ax, self.grid, curves, self._references(s), title=_label(c, s), styles=styles
             )
-            ax.legend(fontsize=7, loc="best")
+            legend_outside(ax)
         for ax in list(axes.flat)[len(sets) :]:
             ax.set_visible(False)
         self.save(fig, name, caption)
@@ -478,7 +614,7 @@ class _Report:
     def student_figure(self) -> None:
         import matplotlib.pyplot as plt
 
-        from tlac.experiments.plots import plot_curves
+        from tlac.experiments.plots import legend_outside, plot_curves
 
         c = self.config
         sets = [s for s in self.set_keys() if any(len(d.evals) for d in self.finished(s))]
@@ -490,10 +626,10 @@ class _Report:
             return
         ncols = min(len(sets), 2)
         nrows = math.ceil(len(sets) / ncols)
-        fig, axes = plt.subplots(nrows, ncols, figsize=(5.2 * ncols, 3.6 * nrows), squeeze=False)
+        fig, axes = plt.subplots(nrows, ncols, figsize=(5.2 * ncols, 4.3 * nrows), squeeze=False)
         base_runs = self.finished(NO_TEACHERS, c.baseline) if c.baseline else []
         for ax, s in zip(axes.flat, sets, strict=False):
-            curves = {}
+            curves, styles = {}, {}
             groups = [(a, self.finished(s, a)) for a in self.advice_algos]
             if base_runs:
                 groups.append((c.baseline, base_runs))
@@ -504,8 +640,9 @@ class _Report:
                     if len(d.evals)
                 ]
                 if ev:
-                    curves[f"{a} (n={len(ev)})"] = M.mean_std(np.array(ev))
-            styles = {k: self.styles.get(k.split(" ")[0], 0) for k in curves}
+                    label = f"{algorithm_label(c, a)} (n={len(ev)})"
+                    curves[label] = M.bootstrap_mean_ci(np.array(ev))
+                    styles[label] = self.styles.get(a, 0)
             plot_curves(
                 ax,
                 grid,
@@ -515,19 +652,20 @@ class _Report:
                 ylabel="student-alone return per episode",
                 styles=styles,
             )
-            ax.legend(fontsize=7, loc="best")
+            legend_outside(ax)
         for ax in list(axes.flat)[len(sets) :]:
             ax.set_visible(False)
         self.save(
             fig,
             "student_alone.png",
-            f"The student alone (no teacher): mean ± std over seeds of {c.eval.episodes}-episode evaluations",
+            f"The student alone (no teacher): mean over seeds of {c.eval.episodes}-episode "
+            "evaluations, with the 95% bootstrap interval of the mean (seeds resampled)",
         )
 
     def usage_figures(self) -> None:
         import matplotlib.pyplot as plt
 
-        from tlac.experiments.plots import plot_usage
+        from tlac.experiments.plots import legend_outside, plot_usage
 
         bin_width = max(self.config.log_interval, self.config.steps / 50)
         for a in self.advice_algos:
@@ -538,15 +676,18 @@ class _Report:
                 freq = M.reuse_frequency(pd.concat(frames, ignore_index=True), bin_width)
                 regions = [r for r in freq["region"].unique() if r != "all"] or ["all"]
                 fig, axes = plt.subplots(
-                    1, len(regions), figsize=(4.6 * len(regions), 3.4), squeeze=False
+                    1, len(regions), figsize=(4.6 * len(regions), 4.0), squeeze=False
                 )
                 choices = list(dict.fromkeys(pd.concat(frames)["choice"]))
                 for ax, region in zip(axes.flat, regions, strict=True):
                     plot_usage(
                         ax, freq[freq.region == region], title=f"region: {region}", choices=choices
                     )
-                axes.flat[0].legend(fontsize=7)
-                fig.suptitle(f"{a}, {_label(self.config, s)}: teacher usage", fontsize=10)
+                legend_outside(axes.flat[0])
+                fig.suptitle(
+                    f"{algorithm_label(self.config, a)}, {_label(self.config, s)}: teacher usage",
+                    fontsize=10,
+                )
                 self.save(
                     fig,
                     f"usage__{s}__{a}.png",
@@ -559,12 +700,16 @@ class _Report:
         self.jumpstart_section()
         self.performance_section()
         self.iqm_section()
+        self.comparison_section()
         self.sections.append("## Learning curves")
         self.curves_figure(
             self.advice_algos,
             "curves.png",
-            "Mean training return over seeds (± std bands) per teacher set; horizontal lines: "
-            "each teacher's own return (paper, Figures 3-9)",
+            f"Mean training return over seeds per teacher set, each seed's curve smoothed over "
+            f"{SMOOTHING_BINS} of {self.config.metrics.curve_points} bins "
+            f"({SMOOTHING_BINS / self.config.metrics.curve_points:.0%} of the budget); bands: "
+            "95% bootstrap interval of the mean (seeds resampled; the paper's Figures 3-9 show "
+            "+-1 std); horizontal lines: each teacher's own return",
         )
         self.student_figure()
         tlac_variants = [a.key for a in self.config.algorithms if a.name == "tlac"]
