@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 import torch
+from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
 
 from tlac.algorithms import losses
 from tlac.algorithms.nets import StackedMLP, gaussian_log_prob, np_gaussian_log_prob, np_log_softmax
-from tlac.algorithms.optim import RMSpropTFLikeForeach
 from tlac.algorithms.rollout import compute_gae
 from tlac.errors import ConfigError
 from tlac.presets import make_schedule
@@ -148,27 +148,10 @@ def test_stacked_mlp_members_equal_their_own_mlps_even_with_different_widths():
     grad = net.weights[0].grad
     assert float(grad[1].abs().sum()) > 0 and float(grad[[0, 2]].abs().sum()) == 0.0
     # a gradient step leaves the padded weights at exactly zero
-    opt = RMSpropTFLikeForeach(net.parameters(), lr=0.1)
+    opt = RMSpropTFLike(net.parameters(), lr=0.1)
     net(x)[0].sum().backward()
     opt.step()
     assert float(net.weights[0].detach()[2, :, 3:].abs().sum()) == 0.0
-
-
-def test_foreach_rmsprop_matches_sb3_rmsprop_tf_like():
-    from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
-
-    torch.manual_seed(0)
-    a = [torch.randn(5, 3, requires_grad=True), torch.randn(4, requires_grad=True)]
-    b = [x.detach().clone().requires_grad_() for x in a]
-    opt_a = RMSpropTFLike(a, lr=7e-4, alpha=0.99, eps=1e-5)
-    opt_b = RMSpropTFLikeForeach(b, lr=7e-4, alpha=0.99, eps=1e-5)
-    for _ in range(10):
-        for params, opt in ((a, opt_a), (b, opt_b)):
-            opt.zero_grad()
-            sum((p**3).sum() for p in params).backward()
-            opt.step()
-    for x, y in zip(a, b, strict=True):
-        torch.testing.assert_close(x.detach(), y.detach())
 
 
 def test_numpy_and_torch_log_probs_agree():

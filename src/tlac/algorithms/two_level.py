@@ -27,6 +27,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import torch
+from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 from torch import nn
 
@@ -61,7 +62,6 @@ from tlac.algorithms.nets import (
     np_log_softmax,
     np_sample_categorical,
 )
-from tlac.algorithms.optim import RMSpropTFLikeForeach
 from tlac.algorithms.resume import (
     attributes_state,
     generator_states,
@@ -143,7 +143,7 @@ class TLACConfig:
     """GAE(lambda); 0 gives the paper's one-step advantage (Eq. 2) exactly."""
     normalize_advantage: bool = True
     optimizer: str = "rmsprop_tf"
-    """rmsprop_tf (SB3's RMSpropTFLike update, the paper's; run with foreach kernels) or adam."""
+    """rmsprop_tf (SB3's RMSpropTFLike, the paper's) or adam."""
     optimizer_eps: float = 1e-5
     rmsprop_alpha: float = 0.99
     use_sde: bool = False
@@ -525,7 +525,7 @@ class TLAC(SB3Compat):
                 params, lr=lr0, eps=cfg.optimizer_eps, foreach=True
             )
         else:
-            self.optimizer = RMSpropTFLikeForeach(
+            self.optimizer = RMSpropTFLike(
                 params, lr=lr0, alpha=cfg.rmsprop_alpha, eps=cfg.optimizer_eps
             )
         self.lr_schedule = make_schedule(cfg.learning_rate, "learning_rate")
