@@ -125,3 +125,21 @@ def test_sb3_style_constructor_arguments(tmp_path: Path, capsys) -> None:
     ]:
         with pytest.raises(ConfigError, match=match):
             TLAC(cartpole(), teachers=[balance_teacher()], **bad)
+
+
+def test_n_envs_from_a_domain_name_can_run_in_subprocesses(tmp_path: Path) -> None:
+    from stable_baselines3.common.vec_env import SubprocVecEnv
+
+    from tlac.run import RunSpec, train_run
+
+    model = TLAC("doorkey", teachers=["optimal"], seed=0, n_envs=2, vec_env="subproc")
+    try:
+        assert isinstance(model.env.venv, SubprocVecEnv)
+        model.learn(128, progress_bar=False)
+        assert model.num_timesteps >= 128
+    finally:
+        model.env.close()
+    spec = RunSpec(env="doorkey", steps=64, overrides={"vec_env": "subproc"})
+    with pytest.raises(ConfigError, match="vec_env=subproc is for the Python API"):
+        train_run(spec, tmp_path / "run")
+    assert not (tmp_path / "run").exists()  # refused before anything is written

@@ -25,7 +25,7 @@ import numpy as np
 import torch
 import yaml
 from filelock import FileLock, Timeout
-from stable_baselines3.common.vec_env import DummyVecEnv
+from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 from tlac.algorithms import NO_ADVICE, get_algorithm
 from tlac.algorithms.common import check_seed, safe_torch_load
@@ -120,6 +120,17 @@ class RunSpec:
         return domain
 
 
+def check_in_process(hp: dict[str, Any]) -> None:
+    """A run folder's environments stay in this process (its checkpoints pickle them for an
+    exact resume): ``vec_env: subproc`` is refused with that reason."""
+    if hp.get("vec_env", "dummy") != "dummy":
+        raise ConfigError(
+            "vec_env=subproc is for the Python API (TLAC(..., vec_env='subproc')): a run of "
+            "tlac train keeps its environments in process, so that its checkpoints can resume "
+            "exactly"
+        )
+
+
 def hyperparameters(spec: RunSpec) -> dict[str, Any]:
     """The preset's settings for ``spec.algo`` with ``spec.overrides`` applied."""
     hp = load_preset(spec.resolved_preset(), spec.algo)
@@ -135,13 +146,19 @@ def hyperparameters(spec: RunSpec) -> dict[str, Any]:
 
 
 def make_vec_env(
-    domain: Domain, n_envs: int, seed: int, episodes_csv: Path | None
+    domain: Domain,
+    n_envs: int,
+    seed: int,
+    episodes_csv: Path | None,
+    subprocesses: bool = False,
 ) -> EpisodeRecorder:
-    """``n_envs`` copies of the domain's env in a DummyVecEnv, seeded ``seed + i``,
-    recording finished episodes to ``episodes_csv``."""
+    """``n_envs`` copies of the domain's env in a DummyVecEnv (or, with ``subprocesses``, a
+    SubprocVecEnv: one process each), seeded ``seed + i``, recording finished episodes to
+    ``episodes_csv``."""
     if not isinstance(n_envs, int) or n_envs <= 0:
         raise ConfigError(f"n_envs must be a positive integer, got {n_envs!r}")
-    venv = DummyVecEnv([domain.make_env for _ in range(n_envs)])
+    factories = [domain.make_env for _ in range(n_envs)]
+    venv = SubprocVecEnv(factories) if subprocesses else DummyVecEnv(factories)
     venv.seed(seed)
     return EpisodeRecorder(venv, episodes_csv)
 
@@ -253,6 +270,7 @@ def train_run(
     check = getattr(get_algorithm(spec.algo), "check_hyperparameters", None)
     if check is not None:  # optional in the algorithm contract (docs/architecture.md)
         check(hp)
+    check_in_process(hp)
     out = Path(out_dir)
     check_out_folder(out, spec, domain, replace)
     try:

@@ -227,6 +227,10 @@ class TLACConfig:
     """UCB1 exploration constant (scaled by the observed return range)."""
     n_envs: int = 1
     """Parallel environments, used only when TLAC builds the environment from a domain name."""
+    vec_env: str = "dummy"
+    """How TLAC steps those environments: dummy (in this process, SB3's DummyVecEnv; needed for
+    an exact resume) or subproc (one process each, SB3's SubprocVecEnv; for slow
+    environments). Used only when TLAC builds the environment from a domain name."""
 
     def __post_init__(self) -> None:
         if self.variant not in VARIANT_DEFAULTS:
@@ -297,6 +301,8 @@ class TLACConfig:
             raise UnknownNameError("trust", self.trust, list(losses.TRUST_RULES))
         if self.low_level_data not in ("all", "agent"):
             raise UnknownNameError("low_level_data", self.low_level_data, ["all", "agent"])
+        if self.vec_env not in ("dummy", "subproc"):
+            raise UnknownNameError("vec_env", self.vec_env, ["dummy", "subproc"])
         if self.selector not in ("learned", "random", "ucb1"):
             raise UnknownNameError("selector", self.selector, ["learned", "random", "ucb1"])
         depths = {len(self.net_arch_high), len(self.net_arch_low), len(self.net_arch_critic)}
@@ -315,14 +321,16 @@ def domain_preset(name: str) -> dict[str, Any]:
     return load_preset(domain.presets["tlac"], "tlac") if "tlac" in domain.presets else {}
 
 
-def _as_vec_env(env: Any, n_envs: int, seed: int) -> tuple[VecEnv, Any]:
-    """Accept a domain name, a Gymnasium env or an SB3 VecEnv; returns (vec_env, domain|None)."""
+def _as_vec_env(env: Any, n_envs: int, seed: int, vec_env: str = "dummy") -> tuple[VecEnv, Any]:
+    """Accept a domain name, a Gymnasium env or an SB3 VecEnv; returns (vec_env, domain|None).
+    A domain name gets ``n_envs`` environments in a DummyVecEnv or (``vec_env="subproc"``) a
+    SubprocVecEnv."""
     if isinstance(env, str):
         from tlac.envs import get_domain
         from tlac.run import make_vec_env
 
         domain = get_domain(env)
-        return make_vec_env(domain, n_envs, seed, None), domain
+        return make_vec_env(domain, n_envs, seed, None, subprocesses=vec_env == "subproc"), domain
     if isinstance(env, VecEnv):
         venv = env
     elif isinstance(env, gym.Env):
@@ -403,7 +411,7 @@ class TLAC(SB3Compat):
         self.config = TLACConfig.from_settings(settings)
         self.seed = seed = check_seed(seed)
         torch.manual_seed(seed)
-        self.env, domain = _as_vec_env(env, self.config.n_envs, seed)
+        self.env, domain = _as_vec_env(env, self.config.n_envs, seed, self.config.vec_env)
         self.n_envs = self.env.num_envs
         if self.config.batch_size > self.config.n_steps * self.n_envs:
             raise ConfigError(

@@ -162,14 +162,16 @@ def check_grid_settings(config: ExperimentConfig) -> None:
     """Every run's spec and hyperparameters are valid (the checks ``train_run`` makes first),
     so that a typo in one algorithm's overrides stops the grid before any run starts."""
     from tlac.algorithms import get_algorithm
-    from tlac.run import hyperparameters
+    from tlac.run import check_in_process, hyperparameters
 
     for r in expand_grid(config):
         try:
             r.spec.validate()
             check = getattr(get_algorithm(r.spec.algo), "check_hyperparameters", None)
+            hp = hyperparameters(r.spec)
             if check is not None:
-                check(hyperparameters(r.spec))
+                check(hp)
+            check_in_process(hp)
         except ConfigError as exc:
             raise ConfigError(f"{config.source}: run {r.name}: {exc}") from None
 
