@@ -184,7 +184,7 @@ def _markdown_table(header: list[str], rows: list[list[str]]) -> str:
 
 
 def load_paper_results() -> dict[str, Any]:
-    """The paper's jumpstarts (Tables 1-3), ``paper_results.yaml``."""
+    """The paper's jumpstarts (Tables 1-3) and its teachers' returns, ``paper_results.yaml``."""
     text = (resources.files("tlac.experiments") / "paper_results.yaml").read_text()
     return yaml.safe_load(text)
 
@@ -321,6 +321,42 @@ class _Report:
         if failed:
             text += ["", "Failed runs:", ""] + [f"- `{d.run.name}`: {d.error}" for d in failed]
         self.sections.append("\n".join(text))
+
+    def teachers_section(self) -> None:
+        """Each teacher alone, as measured for this grid (``teachers.json``), beside the
+        paper's value for the same teacher where it states one (with ``--paper``)."""
+        if not self.teachers:
+            return
+        paper = (
+            load_paper_results().get("teachers", {}).get(self.config.domain, {})
+            if self.paper
+            else {}
+        )
+        header = ["teacher", "mean return", "std", "episodes"] + (["paper"] if self.paper else [])
+        rows = []
+        for name, info in self.teachers.items():
+            if "mean" not in info:
+                continue
+            row = [
+                f"`{name}`",
+                fmt(info["mean"]),
+                fmt(info.get("std")),
+                str(info.get("episodes", "")),
+            ]
+            if self.paper:
+                p = paper.get(name)
+                row.append(
+                    "not stated"
+                    if p is None
+                    else fmt(p["mean"])
+                    + (f" ± {fmt(p['std'])}" if "std" in p else "")
+                    + (f" ({p['note']})" if "note" in p else "")
+                )
+            rows.append(row)
+        note = "Each teacher alone (no learner), measured once per grid."
+        if self.paper:
+            note += " Paper: its appendix A (A.1.1, A.2.1, A.3.1)."
+        self.sections.append("## Teachers\n\n" + note + "\n\n" + _markdown_table(header, rows))
 
     def jumpstart_section(self) -> None:
         c = self.config
@@ -697,6 +733,7 @@ class _Report:
 
     def write(self) -> Path:
         self.status_section()
+        self.teachers_section()
         self.jumpstart_section()
         self.performance_section()
         self.iqm_section()
