@@ -23,7 +23,7 @@ level's preference among the teachers. Without this gate the high level can hand
 incompetent student on noisy advantages (with imperfect or partial teachers it did, and the
 training return collapsed; docs/graduation.md).
 
->>> solo_probability(0.0, 0.05), solo_probability(0.8, 0.05), solo_probability(0.99, 0.05)
+>>> solo_probability(0.0, 0.05), round(solo_probability(0.8, 0.05), 9), solo_probability(0.99, 0.05)
 (0.05, 0.25, 1.0)
 >>> competence(solo=0.5, assisted=0.9, floor=0.1)
 0.5

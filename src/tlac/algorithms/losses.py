@@ -78,7 +78,7 @@ def explained_variance(values: torch.Tensor, returns: torch.Tensor) -> float:
     perfect critic, 0 no better than a constant; NaN when the returns do not vary).
 
     >>> explained_variance(torch.tensor([1.0, 2.0, 3.0]), torch.tensor([1.0, 2.0, 4.0]))
-    0.7857142686843872
+    0.8571428656578064
     """
     var = torch.var(returns)
     return float("nan") if var == 0 else float(1.0 - torch.var(returns - values) / var)
