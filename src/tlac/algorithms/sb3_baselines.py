@@ -272,10 +272,13 @@ class _SB3Baseline:
         actions, _ = self.model.predict(observation, deterministic=deterministic)
         return np.asarray(actions), None
 
-    def save(self, path: str | Path) -> None:
-        """Write ``path`` + ``.zip`` (SB3's format; the optimizer state included)."""
+    def save(self, path: str | Path) -> Path:
+        """Write ``path`` + ``.zip`` (SB3's format; the optimizer state included) and return
+        that path."""
         p = Path(path)
-        self.model.save(str(p.with_suffix("") if p.suffix == ".zip" else p))
+        stem = p.with_suffix("") if p.suffix == ".zip" else p
+        self.model.save(str(stem))
+        return stem.with_name(stem.name + ".zip")
 
     @classmethod
     def load(
