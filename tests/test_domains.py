@@ -41,8 +41,9 @@ def test_a_registered_domain_works_by_name_from_python() -> None:
     ("bad", "match"),
     [
         ({"name": "doorkey"}, "exists already"),
-        ({"name": ""}, "non-empty string"),
-        ({"name": "a:b"}, "without ':'"),
+        ({"name": ""}, "letters, digits"),
+        ({"name": "a:b"}, "letters, digits"),
+        ({"name": "my domain"}, "letters, digits"),
         ({"make_env": 3}, "make_env must be callable"),
         ({"teacher_names": ()}, "teacher_names must be a non-empty tuple"),
     ],

@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import importlib.util
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -104,9 +105,12 @@ def register_domain(domain: Domain, replace: bool = False) -> Domain:
     """
     if not isinstance(domain, Domain):
         raise ConfigError(f"register_domain takes a tlac.envs.Domain, got {type(domain).__name__}")
-    if not isinstance(domain.name, str) or not domain.name or ":" in domain.name:
+    if not isinstance(domain.name, str) or not re.fullmatch(
+        r"[A-Za-z0-9][A-Za-z0-9._+-]*", domain.name
+    ):
         raise ConfigError(
-            f"a domain name must be a non-empty string without ':', got {domain.name!r}"
+            f"a domain name must be letters, digits and . _ - (it names run folders and the "
+            f"Gymnasium id tlac/<name>-v0), got {domain.name!r}"
         )
     for field_name in ("make_env", "make_teacher"):
         if not callable(getattr(domain, field_name)):
