@@ -106,7 +106,7 @@ def register_domain(domain: Domain, replace: bool = False) -> Domain:
     if not isinstance(domain, Domain):
         raise ConfigError(f"register_domain takes a tlac.envs.Domain, got {type(domain).__name__}")
     if not isinstance(domain.name, str) or not re.fullmatch(
-        r"[A-Za-z0-9][A-Za-z0-9._+-]*", domain.name
+        r"[A-Za-z0-9][A-Za-z0-9._-]*", domain.name
     ):
         raise ConfigError(
             f"a domain name must be letters, digits and . _ - (it names run folders and the "
