@@ -124,6 +124,17 @@ def test_box_imitation_is_a_gaussian_with_imitation_std_half_widths():
         TLAC(env, imitation_std=0.0)
 
 
+def test_advantage_weighted_nll_hand_checked():
+    lp = torch.log(torch.tensor([0.5, 0.25, 0.5, 0.1]))
+    adv = torch.tensor([0.0, 1.0, 5.0, 10.0])
+    rows = torch.tensor([1.0, 1.0, 0.0, 1.0])
+    # weights exp(0) = 1, exp(1) = e, (row 2 left out), exp(10) capped at 20
+    expected = (math.log(2) + math.e * math.log(4) + 20 * math.log(10)) / 3
+    got = losses.advantage_weighted_nll(lp, adv, rows, beta=1.0)
+    assert float(got) == pytest.approx(expected, rel=1e-6)
+    assert float(losses.advantage_weighted_nll(lp, adv, torch.zeros(4), 1.0)) == 0.0
+
+
 def test_solo_probability_keeps_the_expected_cost_within_budget():
     for c in np.linspace(0.0, 0.999, 50):
         p = solo_probability(float(c), 0.05)

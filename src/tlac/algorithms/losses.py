@@ -12,6 +12,8 @@ SAME advantage from the shared critic (Eq. 6).
 
 from __future__ import annotations
 
+import math
+
 import torch
 
 
@@ -82,6 +84,21 @@ def explained_variance(values: torch.Tensor, returns: torch.Tensor) -> float:
     """
     var = torch.var(returns)
     return float("nan") if var == 0 else float(1.0 - torch.var(returns - values) / var)
+
+
+def advantage_weighted_nll(
+    log_prob: torch.Tensor, advantages: torch.Tensor, rows: torch.Tensor, beta: float
+) -> torch.Tensor:
+    """AWR's imitation loss (Peng et al. 2019) on the selected ``rows`` (0/1): the mean of
+    ``-exp(min(A / beta, log 20)) * log_prob`` there (weights without gradient), 0 without
+    rows.
+
+    >>> lp = torch.log(torch.tensor([0.5, 0.25, 0.5]))
+    >>> round(float(advantage_weighted_nll(lp, torch.tensor([0.0, 1.0, 5.0]), torch.tensor([1.0, 1.0, 0.0]), 1.0)), 4)
+    2.2307
+    """
+    weights = torch.exp(torch.clamp(advantages / beta, max=math.log(20.0))).detach()
+    return -(weights * log_prob * rows).sum() / rows.sum().clamp(min=1.0)
 
 
 def _weighted_mean(x: torch.Tensor, weights: torch.Tensor | None) -> torch.Tensor:

@@ -169,6 +169,14 @@ class TLACConfig:
     """Weight of the low level's imitation of the teachers, each weighted per state by the high
     level's probability of choosing it (docs/graduation.md); number or {linear: [start, end]}.
     None: the variant's (graduate 1.0, paper 0)."""
+    awr_coef: float = 0.0
+    """Advantage-weighted imitation of the EXECUTED teacher actions (AWR, Peng et al. 2019):
+    adds ``awr_coef * mean over teacher rows of -exp(min(A / awr_beta, log 20)) log
+    pi_low(a|s)`` (normalised advantages, no gradient through the weight), so that a noisy
+    teacher's better actions count more than its random ones. 0 (off) in both variants: a
+    candidate for noisy teachers (docs/graduation.md)."""
+    awr_beta: float = 1.0
+    """Temperature of awr_coef's weights (in units of the normalised advantage)."""
     advice_cost: float | None = None
     """Subtracted from the high level's (normalised) advantage wherever a teacher acted, so that
     control passes to the agent once its actions are about as good. None: the variant's
@@ -284,6 +292,7 @@ class TLACConfig:
             "advice_cost",
             "ent_cap_high",
             "solo_budget",
+            "awr_coef",
         ):
             if getattr(self, name) < 0:
                 raise ConfigError(f"TL-AC setting {name} must be >= 0, got {getattr(self, name)!r}")
@@ -293,6 +302,8 @@ class TLACConfig:
             raise UnknownNameError("kl_rows", self.kl_rows, ["agent", "all", "high"])
         if self.obs_encoding not in ENCODINGS:
             raise UnknownNameError("obs_encoding", self.obs_encoding, list(ENCODINGS))
+        if not self.awr_beta > 0:  # also rejects NaN
+            raise ConfigError(f"TL-AC setting awr_beta must be > 0, got {self.awr_beta!r}")
         if not self.imitation_std > 0:  # also rejects NaN
             raise ConfigError(
                 f"TL-AC setting imitation_std must be > 0, got {self.imitation_std!r}"
@@ -940,6 +951,12 @@ class TLAC(SB3Compat):
                     values, data["returns"][idx], None if critic_rows is None else critic_rows[idx]
                 )
                 loss = policy_losses.sum() + cfg.vf_coef * vf_loss
+                if cfg.awr_coef:
+                    level_adv = adv[0] if adv.dim() == 2 else adv
+                    teacher_rows = (data["choices"][idx] < self.n_teachers).float()
+                    loss = loss + cfg.awr_coef * losses.advantage_weighted_nll(
+                        lp_low, level_adv, teacher_rows, cfg.awr_beta
+                    )
                 if advice is not None:
                     imitation = self._replayed_imitation()
                     loss = loss + distill * imitation
