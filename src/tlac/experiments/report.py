@@ -463,38 +463,58 @@ class _Report:
         return "never" if math.isnan(step) else f"{step:,.0f}"
 
     def iqm_section(self) -> None:
+        """IQM per algorithm over all its runs. Teacher sets have different ceilings, so
+        beside the raw IQM each run's score is divided by the best teacher's own return in its
+        set (where one was measured and is positive), and the figure shows that normalised
+        IQM when every run has it."""
         if len(self.summary) == 0:
             return
         import matplotlib.pyplot as plt
 
+        from tlac.experiments.plots import plot_interval_estimates
+
         c = self.config
+        summary = self.summary.copy()
+        best = summary.teacher_set.map(self._best_teacher)
+        best = best.where(best > 0)
+        cols = ("final_return", "student_final_return")
+        for col in cols:
+            summary[f"{col}_norm"] = summary[col] / best
         header = [
             "algorithm",
             "IQM final training return [95% CI]",
             "IQM student alone [95% CI]",
+            "the same / best teacher's return [95% CI]",
             "runs",
         ]
-        rows, labels, est = [], [], {"final_return": [], "student_final_return": []}
+        rows, labels, est = [], [], {k: [] for k in cols + tuple(f"{k}_norm" for k in cols)}
         for a in self.algo_order:
-            part = self.summary[self.summary.algo == a]
+            part = summary[summary.algo == a]
             if len(part) == 0:
                 continue
             labels.append(a)
             cells = []
-            for col in ("final_return", "student_final_return"):
+            for col in est:
                 tasks = [g[col].dropna().to_numpy(float) for _, g in part.groupby("teacher_set")]
                 p, lo, hi = M.stratified_bootstrap_ci(
                     tasks, M.iqm, c.metrics.bootstrap_reps, 0.95, c.metrics.bootstrap_seed
                 )
                 est[col].append((p, lo, hi))
                 cells.append(f"{fmt(p)} [{fmt(lo)}, {fmt(hi)}]")
-            rows.append([f"`{a}`"] + cells + [str(len(part))])
+            normalised = f"training {cells[2]}; student {cells[3]}"
+            rows.append([algorithm_label(c, a), cells[0], cells[1], normalised, str(len(part))])
         self.sections.append(
             "## Interquartile mean\n\nIQM over all runs of an algorithm (every teacher set and seed), "
             f"with a 95% stratified-bootstrap confidence interval ({c.metrics.bootstrap_reps} resamples, "
             f"random state {c.metrics.bootstrap_seed}; runs resampled within each teacher set), as in "
-            "Agarwal et al. 2021.\n\n" + _markdown_table(header, rows)
+            "Agarwal et al. 2021. Teacher sets have different ceilings, so the raw IQM mixes "
+            "them; the normalised column divides each run's score by the best teacher's own "
+            "return in its set first (runs without advice have no teacher: left out there)."
+            "\n\n" + _markdown_table(header, rows)
         )
+        use_norm = all(np.isfinite(p) for p, _, _ in est["final_return_norm"])
+        suffix = "_norm" if use_norm else ""
+        unit = " / best teacher's return" if use_norm else " (per episode)"
         fig, axes = plt.subplots(1, 2, figsize=(9, 0.6 * len(labels) + 1.6), sharey=True)
         for ax, (col, xlabel) in zip(
             axes,
@@ -504,19 +524,21 @@ class _Report:
             ],
             strict=True,
         ):
-            p, lo, hi = zip(*est[col], strict=True) if est[col] else ((), (), ())
-            from tlac.experiments.plots import plot_interval_estimates
-
+            values = est[col + suffix]
+            p, lo, hi = zip(*values, strict=True) if values else ((), (), ())
             plot_interval_estimates(
                 ax,
-                labels,
+                [algorithm_label(c, a) for a in labels],
                 p,
                 lo,
                 hi,
-                xlabel=xlabel + " (per episode)",
+                xlabel=xlabel + unit,
                 styles=[self.styles[a] for a in labels],
             )
-        self.save(fig, "iqm.png", "IQM with 95% stratified-bootstrap confidence intervals")
+        caption = "IQM with 95% stratified-bootstrap confidence intervals" + (
+            ", each run's score divided by its teacher set's best teacher" if use_norm else ""
+        )
+        self.save(fig, "iqm.png", caption)
 
     def _best_teacher(self, set_key: str) -> float:
         """The best own return among a teacher set's teachers (NaN if not measured)."""
