@@ -495,7 +495,7 @@ def test_report_numbers_against_hand_computed_values(tmp_path: Path) -> None:
     row = next(line for line in text.splitlines() if line.startswith("| a | `tlac` |"))
     assert row.endswith("| 750 |")
     # IQM of tlac's final returns 0.9, 0.6, 0.3, 0.5: mean of the middle two = 0.55
-    assert "| `tlac` | 0.550 [" in text
+    assert "| TL-AC | 0.550 [" in text  # the algorithm's label, not its run key
     # the failed run is listed with its error; the paper's cells are absent for keys a/b
     assert "`doorkey__b__tlac__ucb1__seed1`: ValueError: boom" in text
     assert not re.search(r"\(paper -?\d", text)
