@@ -143,3 +143,18 @@ def test_n_envs_from_a_domain_name_can_run_in_subprocesses(tmp_path: Path) -> No
     with pytest.raises(ConfigError, match="vec_env=subproc is for the Python API"):
         train_run(spec, tmp_path / "run")
     assert not (tmp_path / "run").exists()  # refused before anything is written
+
+
+def test_policy_kwargs_as_in_sb3() -> None:
+    model = TLAC(
+        cartpole(),
+        teachers=[balance_teacher()],
+        policy_kwargs={"net_arch": {"pi": [32, 32], "vf": [16, 16]}},
+        net_arch_critic=[8, 8],  # a setting given by name wins
+        **SMALL["tlac"],
+    )
+    cfg = model.config
+    assert cfg.net_arch_high == [32, 32] and cfg.net_arch_low == [32, 32]
+    assert cfg.net_arch_critic == [8, 8]
+    with pytest.raises(ConfigError, match="not supported by TL-AC"):
+        TLAC(cartpole(), policy_kwargs={"activation_fn": "relu"})

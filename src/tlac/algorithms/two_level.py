@@ -332,6 +332,48 @@ def domain_preset(name: str) -> dict[str, Any]:
     return load_preset(domain.presets["tlac"], "tlac") if "tlac" in domain.presets else {}
 
 
+def settings_from_policy_kwargs(policy_kwargs: Any) -> dict[str, Any]:
+    """SB3's ``policy_kwargs`` as TL-AC settings: ``net_arch`` (a list: every network; or
+    ``dict(pi=[...], vf=[...])``: both actors, the critic), ``log_std_init`` and
+    ``ortho_init``. Anything else is a ConfigError naming it; settings given directly win.
+
+    >>> settings_from_policy_kwargs({"net_arch": {"pi": [32], "vf": [16]}, "ortho_init": False})
+    {'net_arch_high': [32], 'net_arch_low': [32], 'net_arch_critic': [16], 'ortho_init_high': False, 'ortho_init_low': False}
+    """
+    if policy_kwargs is None:
+        return {}
+    if not isinstance(policy_kwargs, dict):
+        raise ConfigError(f"policy_kwargs must be a dict (as in SB3), got {policy_kwargs!r}")
+    unknown = set(policy_kwargs) - {"net_arch", "log_std_init", "ortho_init"}
+    if unknown:
+        raise ConfigError(
+            f"policy_kwargs {sorted(unknown)} are not supported by TL-AC; it takes net_arch, "
+            "log_std_init and ortho_init (its other networks' settings are TL-AC settings)"
+        )
+    out: dict[str, Any] = {}
+    arch = policy_kwargs.get("net_arch")
+    if isinstance(arch, dict):
+        if set(arch) - {"pi", "vf"}:
+            raise ConfigError(
+                f"policy_kwargs net_arch takes the keys pi and vf, got {sorted(arch)}"
+            )
+        out.update(
+            net_arch_high=arch.get("pi"),
+            net_arch_low=arch.get("pi"),
+            net_arch_critic=arch.get("vf"),
+        )
+        out = {k: v for k, v in out.items() if v is not None}
+    elif arch is not None:
+        out.update(net_arch_high=arch, net_arch_low=arch, net_arch_critic=arch)
+    if "log_std_init" in policy_kwargs:
+        out["log_std_init"] = policy_kwargs["log_std_init"]
+    if "ortho_init" in policy_kwargs:
+        out.update(
+            ortho_init_high=policy_kwargs["ortho_init"], ortho_init_low=policy_kwargs["ortho_init"]
+        )
+    return out
+
+
 def _as_vec_env(env: Any, n_envs: int, seed: int, vec_env: str = "dummy") -> tuple[VecEnv, Any]:
     """Accept a domain name, a Gymnasium env or an SB3 VecEnv; returns (vec_env, domain|None).
     A domain name gets ``n_envs`` environments in a DummyVecEnv or (``vec_env="subproc"``) a
@@ -418,7 +460,9 @@ class TLAC(SB3Compat):
             base = domain_preset(env) if isinstance(env, str) else load_preset("default", "tlac")
         else:
             base = {} if preset is None else load_preset(preset, "tlac")
-        settings = {**base, **settings}
+        # precedence: the preset, then SB3's policy_kwargs, then settings given by name
+        from_policy_kwargs = settings_from_policy_kwargs(settings.pop("policy_kwargs", None))
+        settings = {**base, **from_policy_kwargs, **settings}
         self.config = TLACConfig.from_settings(settings)
         self.seed = seed = check_seed(seed)
         torch.manual_seed(seed)
