@@ -333,14 +333,6 @@ class ACTeachConfig:
 
 
 # --------------------------------------------------------------------------- algorithm
-def _action_space(data: dict[str, Any]) -> gym.Space:
-    """The action space a checkpoint describes (plain data)."""
-    space = data["action_space"]
-    if space["type"] == "discrete":
-        return gym.spaces.Discrete(int(space["n"]))
-    return gym.spaces.Box(np.array(space["low"], np.float32), np.array(space["high"], np.float32))
-
-
 class ACTeach(SB3Compat):
     """AC-Teach: DDPG (or, for Discrete actions, a Q-learning adaptation) with a Bayesian
     critic and Thompson sampling with commitment over the learner and the teachers."""
@@ -777,16 +769,7 @@ class ACTeach(SB3Compat):
             modules.update(
                 actor=self.actor, actor_target=self.actor_target, actor_opt=self.actor_opt
             )
-        space: dict[str, Any] = (
-            {"type": "discrete", "n": self.n_actions}
-            if self.discrete
-            else {"type": "box", "low": self._low.tolist(), "high": self._high.tolist()}
-        )
-        fields = {
-            "obs_shape": list(self.observation_space.shape),
-            "action_space": space,
-            "n_teachers": self.n_teachers,
-        }
+        fields = {"n_teachers": self.n_teachers}
         return save_checkpoint(self, path, fields, modules, training_state, run_state)
 
     @classmethod
@@ -801,4 +784,4 @@ class ACTeach(SB3Compat):
         continue training (the replay buffer starts empty). ``resume``: restore the training
         state of a file saved with ``training_state=True``, replay buffer included (this
         unpickles the saved environments: resume your own checkpoints only)."""
-        return load_model(cls, path, env, teachers, resume, _action_space, "n_teachers")
+        return load_model(cls, path, env, teachers, resume, "n_teachers")

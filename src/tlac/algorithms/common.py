@@ -179,6 +179,31 @@ def spaces_match(a: gym.Space, b: gym.Space) -> bool:
     return False
 
 
+def check_env_spaces(env: Any, observation_space: gym.Space, action_space: gym.Space) -> None:
+    """The environment given to ``load`` has the checkpoint's spaces (:func:`spaces_match`);
+    ConfigError naming the one that differs. ``env=None`` passes."""
+    if env is None:
+        return
+    for kind, saved, given in (
+        ("observation", observation_space, env.observation_space),
+        ("action", action_space, env.action_space),
+    ):
+        if not spaces_match(saved, given):
+            raise ConfigError(
+                f"the environment's {kind} space {given} does not match the model's {saved}"
+            )
+
+
+def atomic_torch_save(data: Any, path: Path) -> Path:
+    """``torch.save`` to a temporary file, then rename it to ``path``: a crash while writing
+    leaves the previous file whole. Returns ``path``."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    torch.save(data, tmp)
+    tmp.replace(path)
+    return path
+
+
 def safe_torch_load(path: Path, what: str) -> Any:
     """``torch.load(weights_only=True)`` (no code runs, whatever the file holds), with any
     failure (not a checkpoint, truncated, empty, a pickle that needs code) as one ConfigError."""

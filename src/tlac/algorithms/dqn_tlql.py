@@ -387,11 +387,7 @@ class DQNTLQL(SB3Compat):
         return save_checkpoint(
             self,
             path,
-            {
-                "obs_shape": list(self.observation_space.shape),
-                "n_actions": self.n_actions,
-                "n_choices": self.n_choices,
-            },
+            {"n_choices": self.n_choices},
             {
                 name: getattr(self, name)
                 for name in (
@@ -419,12 +415,4 @@ class DQNTLQL(SB3Compat):
         continue training. ``resume``: restore the training state of a file saved with
         ``training_state=True`` (this unpickles the saved environments: resume your own
         checkpoints only), so that ``learn`` continues exactly where the model stopped."""
-        return load_model(
-            cls,
-            path,
-            env,
-            teachers,
-            resume,
-            lambda data: gym.spaces.Discrete(int(data["n_actions"])),
-            "n_choices",
-        )
+        return load_model(cls, path, env, teachers, resume, "n_choices")

@@ -6,7 +6,8 @@ A checkpoint is ``torch.save`` of plain data and tensors (``torch.load(weights_o
 reads it; see :func:`tlac.algorithms.common.safe_torch_load`)::
 
     {"algo", "config", "num_timesteps", "seed", "teacher_names", "state": {module: state_dict},
-     ...the algorithm's own space fields...,
+     "observation_space", "action_space" (tlac.algorithms.common.space_to_data),
+     ...the algorithm's own fields...,
      "training": {...}   # only with save(training_state=True): see training_state()
      "run": {...}}       # only when tlac.run passes its writers' state
 
@@ -19,15 +20,20 @@ continues byte-identically (``tests/test_off_policy.py``).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 import torch
 
-from tlac.algorithms.common import checkpoint_path, safe_torch_load, spaces_match
+from tlac.algorithms.common import (
+    atomic_torch_save,
+    check_env_spaces,
+    checkpoint_path,
+    safe_torch_load,
+    space_from_data,
+    space_to_data,
+)
 from tlac.algorithms.resume import (
     generator_states,
     restore_generator_states,
@@ -108,40 +114,6 @@ def schedule_progress(num_timesteps: int, schedule: tuple[int, int]) -> float:
     return (num_timesteps - origin) / max(1, horizon)
 
 
-def check_env_spaces(env: Any, obs_shape: tuple[int, ...], action_space: Any, algo: str) -> None:
-    """The environment given to ``load`` has the checkpoint's observation shape and action
-    space (ConfigError naming both otherwise); ``env=None`` passes.
-
-    >>> class Env:
-    ...     observation_space = gym.spaces.Box(0, 1, (3,))
-    ...     action_space = gym.spaces.Discrete(2)
-    >>> check_env_spaces(Env(), (4,), gym.spaces.Discrete(2), "dqn-tlql")
-    Traceback (most recent call last):
-    ...
-    tlac.errors.ConfigError: dqn-tlql: the environment's observations have shape (3,), the model's (4,)
-    """
-    if env is None:
-        return
-    given = tuple(env.observation_space.shape)
-    if int(np.prod(given)) != int(np.prod(obs_shape)):
-        raise ConfigError(
-            f"{algo}: the environment's observations have shape {given}, the model's {tuple(obs_shape)}"
-        )
-    given_act = env.action_space
-    same_box = (
-        isinstance(action_space, gym.spaces.Box)
-        and isinstance(given_act, gym.spaces.Box)
-        and action_space.shape == given_act.shape
-        and np.allclose(action_space.low, given_act.low)
-        and np.allclose(action_space.high, given_act.high)
-    )
-    if not (same_box or spaces_match(action_space, given_act)):
-        raise ConfigError(
-            f"{algo}: the environment's action space {env.action_space} does not match the "
-            f"model's {action_space}"
-        )
-
-
 def _tensor(a: np.ndarray | None) -> torch.Tensor | None:
     return None if a is None else torch.from_numpy(np.array(a))
 
@@ -206,6 +178,8 @@ def save_checkpoint(
         "teacher_names": [t.name for t in model.teachers],
         "num_timesteps": model.num_timesteps,
         "seed": model.seed,
+        "observation_space": space_to_data(model.observation_space),
+        "action_space": space_to_data(model.action_space),
         **fields,
         "state": {name: m.state_dict() for name, m in modules.items()},
     }
@@ -213,12 +187,7 @@ def save_checkpoint(
         data["training"] = training_state(model)
     if run_state is not None:
         data["run"] = run_state
-    target = checkpoint_path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = target.with_name(target.name + ".tmp")
-    torch.save(data, tmp)
-    tmp.replace(target)  # atomic: a crash while writing leaves the previous checkpoint whole
-    return target
+    return atomic_torch_save(data, checkpoint_path(path))
 
 
 def load_model(
@@ -227,21 +196,20 @@ def load_model(
     env: Any,
     teachers: list[Any] | None,
     resume: bool,
-    action_space: Callable[[dict[str, Any]], gym.Space],
     setup_count: str,
 ) -> Any:
-    """Rebuild a model of ``cls`` from its checkpoint: the settings, the spaces (the
-    observation shape, and ``action_space(data)``), the networks and optimizers, the step
-    count, and with ``resume`` the training state. ``setup_count``: the checkpoint field
-    that ``cls._setup`` takes third (the number of choices or of teachers)."""
+    """Rebuild a model of ``cls`` from its checkpoint: the settings, the spaces (checked
+    against ``env``'s), the networks and optimizers, the step count, and with ``resume`` the
+    training state. ``setup_count``: the checkpoint field that ``cls._setup`` takes third
+    (the number of choices or of teachers)."""
     data = load_checkpoint(path, cls.algo, resume, env)
     model = cls(
         env=None, teachers=teachers, seed=int(data["seed"]), recorder=None, **data["config"]
     )
-    obs_space = gym.spaces.Box(-np.inf, np.inf, shape=tuple(data["obs_shape"]), dtype=np.float32)
-    actions = action_space(data)
-    check_env_spaces(env, obs_space.shape, actions, cls.algo)
-    model._setup(obs_space, actions, int(data[setup_count]))
+    obs_space = space_from_data(data["observation_space"])
+    action_space = space_from_data(data["action_space"])
+    check_env_spaces(env, obs_space, action_space)
+    model._setup(obs_space, action_space, int(data[setup_count]))
     for name, state_dict in data["state"].items():
         getattr(model, name).load_state_dict(state_dict)
     model.num_timesteps, model.env = int(data["num_timesteps"]), env

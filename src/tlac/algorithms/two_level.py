@@ -34,6 +34,8 @@ from torch import nn
 from tlac.algorithms import losses
 from tlac.algorithms.callbacks import LearnCallbacks, SB3Compat
 from tlac.algorithms.common import (
+    atomic_torch_save,
+    check_env_spaces,
     check_observations,
     check_seed,
     check_setting_types,
@@ -43,7 +45,6 @@ from tlac.algorithms.common import (
     safe_torch_load,
     space_from_data,
     space_to_data,
-    spaces_match,
     stop_if_not_finite,
 )
 from tlac.algorithms.encoding import ENCODINGS, make_encoder
@@ -1196,7 +1197,6 @@ class TLAC(SB3Compat):
         ``run_state``: plain data saved alongside under ``"run"`` (``tlac.run``: what the run
         folder's writers need to continue), in the same file so that both change together."""
         path = checkpoint_path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
         state = {
             "format": FORMAT,
             "config": dataclasses.asdict(self.config),
@@ -1213,10 +1213,7 @@ class TLAC(SB3Compat):
             state["training"] = self._training_state()
         if run_state is not None:
             state["run"] = run_state
-        tmp = path.with_name(path.name + ".tmp")
-        torch.save(state, tmp)
-        tmp.replace(path)
-        return path
+        return atomic_torch_save(state, path)
 
     def _training_state(self) -> dict[str, Any]:
         """What :meth:`save` writes with ``training_state=True`` (plain data and tensors)."""
@@ -1318,14 +1315,7 @@ class TLAC(SB3Compat):
         if env is not None:
             model.env, domain = _as_vec_env(env, model.config.n_envs, model.seed)
             model.n_envs = model.env.num_envs
-            for kind, saved, given in (
-                ("observation", obs_space, model.env.observation_space),
-                ("action", action_space, model.env.action_space),
-            ):
-                if not spaces_match(saved, given):
-                    raise ConfigError(
-                        f"the environment's {kind} space {given} does not match the model's {saved}"
-                    )
+            check_env_spaces(model.env, obs_space, action_space)
         else:
             model.env, domain, model.n_envs = None, None, 1
         model.teachers = []
