@@ -154,6 +154,13 @@ def test_stacked_mlp_members_equal_their_own_mlps_even_with_different_widths():
     assert float(net.weights[0].detach()[2, :, 3:].abs().sum()) == 0.0
 
 
+def test_stacked_mlp_masks_only_the_layers_whose_widths_differ():
+    # equal hidden widths: only the output layer (3 vs 2 vs 1 outputs) is padded
+    net = StackedMLP(5, [[8, 8], [8, 8], [8, 8]], [3, 2, 1], [True] * 3, [0.01, 0.01, 1.0])
+    assert [mask is None for _, _, mask in net._layers] == [True, True, False]
+    assert sorted(k for k in net.state_dict() if k.startswith("mask")) == ["mask2"]
+
+
 def test_numpy_and_torch_log_probs_agree():
     rng = np.random.default_rng(0)
     a, mean, log_std = rng.normal(size=(3, 2)), rng.normal(size=(3, 2)), rng.normal(size=(3, 2))

@@ -1329,7 +1329,9 @@ class TLAC(SB3Compat):
                     f"got {len(model.teachers)}"
                 )
         model._build(obs_space, action_space, names)
-        model.net.load_state_dict(state["net"])
+        # checkpoints before the per-layer masks stored an all-ones mask for every layer
+        known = model.net.state_dict()
+        model.net.load_state_dict({k: v for k, v in state["net"].items() if k in known})
         if state["log_std"] is not None:
             assert model.log_std is not None
             with torch.no_grad():
