@@ -57,6 +57,7 @@ class Domain:
 # name -> "module:attribute" of its Domain object
 _DOMAINS: dict[str, str] = {
     "doorkey": "tlac.envs.doorkey:DOMAIN",
+    "doorkey-partial": "tlac.envs.doorkey:PARTIAL_DOMAIN",
     "hopper-bullet": "tlac.envs.hopper:BULLET_DOMAIN",
     "hopper": "tlac.envs.hopper:MUJOCO_DOMAIN",
     "pickplace": "tlac.envs.pickplace:DOMAIN",
@@ -66,6 +67,7 @@ _DOMAINS: dict[str, str] = {
 # Gymnasium ids of the built-in domains: id -> "module:factory" (imported only by gym.make)
 GYM_IDS: dict[str, str] = {
     "tlac/DoorKey-v0": "tlac.envs.doorkey:make_doorkey_env",
+    "tlac/DoorKeyPartial-v0": "tlac.envs.doorkey:make_partial_doorkey_env",
     "tlac/HopperBullet-v0": "tlac.envs.hopper:make_bullet_env",
     "tlac/Hopper-v0": "tlac.envs.hopper:make_mujoco_env",
     "tlac/PickPlace-v0": "tlac.envs.pickplace:make_env",

@@ -33,12 +33,12 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
 
     train = sub.add_parser(
         "train",
-        help="train a SAC teacher and export its actor (paper appendix A.2.1)",
+        help="train a SAC (Hopper) or PPO (DoorKey) teacher and export its actor (paper appendix A.1.1, A.2.1)",
         description="Train stable-baselines3 SAC on ENV, checkpointing every 10k steps "
         "(rerunning resumes from the checkpoint), then evaluate the deterministic actor "
         "and write <out>/<env>-sac.pt and <env>-sac.json.",
     )
-    train.add_argument("env", help="hopper-bullet or hopper")
+    train.add_argument("env", help="hopper-bullet or hopper (SAC), doorkey (PPO)")
     train.add_argument("--steps", type=positive_int, default=1_000_000)
     train.add_argument("--seed", type=non_negative_int, default=0)
     train.add_argument("--out", default="src/tlac/data/teachers", help="where to write weights")
