@@ -118,8 +118,8 @@ def test_pickplace_regions_flip_when_grasping() -> None:
     assert obs[first, 9] + obs[first, 10] < obs[0, 9] + obs[0, 10] + 0.06
 
 
-def test_pickplace_partial_teachers() -> None:
-    """Pick follows the optimal teacher when not holding the box, place when holding it."""
+def test_pickplace_region_teachers() -> None:
+    """pick-region / place-region follow the optimal teacher in their region only."""
     from tlac.teachers.pickplace import optimal_actions
 
     domain = get_domain("pickplace")
@@ -128,13 +128,46 @@ def test_pickplace_partial_teachers() -> None:
     _, observations, _ = _run_episode(env, optimal, seed=7)
     obs = np.stack(observations)
     regions = domain.region_of(obs)
-    pick, place = make_teachers(domain, ["pick", "place"], env, seed=0)
+    pick, place = make_teachers(domain, ["pick-region", "place-region"], env, seed=0)
     reference = optimal_actions(obs)
     np.testing.assert_allclose(pick.predict(obs)[regions == 0], reference[regions == 0])
     np.testing.assert_allclose(place.predict(obs)[regions == 1], reference[regions == 1])
     assert not np.allclose(pick.predict(obs)[regions == 1], reference[regions == 1])
     with pytest.raises(UnknownNameError):
         make_teachers(domain, ["nope"], env, seed=0)
+
+
+def test_pickplace_ac_teach_pick_and_place_teachers() -> None:
+    """AC-Teach's partial teachers: pick grasps the box and carries it back to its start (never
+    to the goal); place keeps the gripper closed and heads for the goal: alone it never
+    grasps, but handed a held box it delivers it."""
+    from tlac.envs.pickplace import GOAL, OBJECT_START_XY
+    from tlac.teachers.pickplace import optimal_actions
+
+    domain = get_domain("pickplace")
+    env = domain.make_env()
+    pick, place = make_teachers(domain, ["pick", "place"], env, seed=0)
+    total, observations, info = _run_episode(env, pick, seed=3)
+    obs = np.stack(observations)
+    regions = domain.region_of(obs)
+    assert regions.max() == 1 and regions[-1] == 1  # grasps, and keeps holding
+    assert np.linalg.norm(obs[-1, 3:5] - OBJECT_START_XY) < 0.03  # back at the start
+    assert not info["is_success"]
+    # place alone: gripper closed at every step, the box is never held
+    _, observations, info = _run_episode(env, place, seed=3)
+    obs = np.stack(observations)
+    assert (place.predict(obs)[:, 3] == -1.0).all() and domain.region_of(obs).max() == 0
+    assert not info["is_success"]
+    # optimal until the box is held, then place: the box reaches the goal
+    obs, _ = env.reset(seed=4)
+    held = False
+    for _ in range(100):
+        held = held or bool(domain.region_of(obs[None])[0])
+        action = place.predict(obs[None])[0] if held else optimal_actions(obs[None])[0]
+        obs, _, _, truncated, info = env.step(action)
+        if truncated:
+            break
+    assert held and np.linalg.norm(obs[3:6] - GOAL) < 0.05
 
 
 def test_sac_actor_matches_sb3() -> None:

@@ -421,7 +421,10 @@ def test_region_labels(env):
 def test_domain_registry_and_teachers(env):
     domain = get_domain("doorkey")
     assert domain is DOMAIN
-    assert domain.teacher_names == ("optimal", "good", "noisy", "random", "L", "R")
+    assert domain.teacher_names == (
+        "optimal", "good", "noisy", "random", "L", "R",
+        "ppo", "ppo-good", "ppo-noisy", "ppo-L", "ppo-R",
+    )  # fmt: skip
     assert domain.default_teachers == ("optimal", "random", "random")
     assert set(domain.presets) == {"tlac", "a2c", "ppo", "dqn-tlql", "ac-teach"}
     teachers = make_teachers(domain, list(domain.teacher_names), env, seed=0)

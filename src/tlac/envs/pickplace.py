@@ -36,7 +36,16 @@ OBJECT_RANGE = 0.05
 GRIPPER_JITTER = np.array([0.05, 0.05, 0.025])
 MAX_EPISODE_STEPS = 100
 
-TEACHER_NAMES: tuple[str, ...] = ("optimal", "good", "noisy", "pick", "place", "random")
+TEACHER_NAMES: tuple[str, ...] = (
+    "optimal",
+    "good",
+    "noisy",
+    "pick",
+    "place",
+    "random",
+    "pick-region",
+    "place-region",
+)
 """Appendix A.3.1's teacher set."""
 REGION_NAMES: tuple[str, ...] = ("not_holding", "holding")
 

@@ -13,7 +13,19 @@ is the constant :data:`tlac.envs.pickplace.GOAL`. Actions are ``[dx, dy, dz, gri
 * :func:`optimal_actions`: pick when not holding the box, place when holding it; once the box
   rests at the goal and is released, stay still with the gripper open.
 
-The domain's ``pick`` / ``place`` teachers are the paper's partial teachers: the optimal
+The domain's ``pick`` / ``place`` teachers are the paper's partial teachers, which the paper
+took from AC-Teach's public code (Kurenkov et al. 2019). They are never random; each knows one
+half of the task and does its own thing in the other half:
+
+* :func:`ac_teach_pick_actions`: pick (as above); once it holds the box it keeps the gripper
+  closed and carries the box back to the box's start position (AC-Teach's ``PickAgent`` with
+  ``return_to_start``), so it never brings it to the goal.
+* :func:`ac_teach_place_actions`: the gripper always closed, heading for the goal (AC-Teach's
+  ``PlaceAgent``): holding the box it carries it there (lifted while far, lowered over the
+  goal) and opens above it; not holding it, it moves the closed gripper to the goal, so it
+  never picks the box up.
+
+``pick-region`` / ``place-region`` are the previous reading of the appendix: the optimal
 teacher in one region (not holding / holding) and uniformly random in the other
 (:class:`tlac.teachers.wrappers.PartialTeacher`). ``good`` / ``noisy`` add Gaussian noise of
 0.01 / 0.1 to the xyz part (rescaled so no component exceeds 1; the gripper command is kept).
@@ -105,6 +117,38 @@ def place_actions(obs: np.ndarray) -> np.ndarray:
     return np.concatenate([xyz, gripper[:, None]], axis=1).astype(np.float32)
 
 
+def ac_teach_pick_actions(obs: np.ndarray) -> np.ndarray:
+    """AC-Teach's pick teacher: :func:`pick_actions` until it holds the box, then it carries
+    the box, gripper closed, back to where boxes start (``OBJECT_START_XY`` on the table)."""
+    from tlac.envs.pickplace import OBJECT_START_XY
+
+    obs = np.asarray(obs, dtype=np.float64)
+    actions = pick_actions(obs)
+    holding = is_holding(obs)
+    if holding.any():
+        start = np.array([*OBJECT_START_XY, _goal()[2]])  # the goal lies on the table too
+        err = start[None, :] - obs[holding, 3:6]
+        actions[holding, :3] = _xyz(err)
+        actions[holding, 3] = -1.0
+    return actions
+
+
+def ac_teach_place_actions(obs: np.ndarray) -> np.ndarray:
+    """AC-Teach's place teacher: gripper closed, always heading for the goal. Holding the box:
+    :func:`place_actions` (carry it there and open above it). Not holding it: the closed
+    gripper moves to the goal, lifted while far from it in x and y (it never grasps)."""
+    obs = np.asarray(obs, dtype=np.float64)
+    actions = place_actions(obs)
+    free = ~is_holding(obs)
+    if free.any():
+        err = _goal()[None, :] - obs[free, 0:3]
+        far = np.linalg.norm(err[:, :2], axis=1) > PLACE_LATERAL_TOL
+        err[far, 2] += CARRY_HEIGHT
+        actions[free, :3] = _xyz(err)
+        actions[free, 3] = -1.0
+    return actions
+
+
 def optimal_actions(obs: np.ndarray) -> np.ndarray:
     """Pick when not holding the box, place when holding it; idle once it is at the goal."""
     obs = np.asarray(obs, dtype=np.float64)
@@ -128,7 +172,8 @@ class ScriptedTeacher:
 
 
 def make_pickplace_teacher(name: str, action_space: gym.Space, seed: int) -> Teacher:
-    """Appendix A.3.1's teachers by name: optimal, good, noisy, pick, place, random."""
+    """Appendix A.3.1's teachers by name: optimal, good, noisy, pick, place, random, and the
+    region-based pick-region / place-region."""
     from tlac.envs.pickplace import TEACHER_NAMES, region_of
     from tlac.teachers.wrappers import GaussianNoiseTeacher, PartialTeacher, RandomTeacher
 
@@ -138,10 +183,14 @@ def make_pickplace_teacher(name: str, action_space: gym.Space, seed: int) -> Tea
     if name in ("good", "noisy"):
         sigma = 0.01 if name == "good" else 0.1
         return GaussianNoiseTeacher(optimal, sigma, action_space, seed, dims=3, name=name)
-    if name == "pick":  # optimal when not holding the box (region 0), random otherwise
-        return PartialTeacher(optimal, region_of, [0], action_space, seed, name="pick")
-    if name == "place":  # optimal when holding the box (region 1), random otherwise
-        return PartialTeacher(optimal, region_of, [1], action_space, seed, name="place")
+    if name == "pick":  # AC-Teach's: picks, then carries the box back to its start
+        return ScriptedTeacher(ac_teach_pick_actions, "pick")
+    if name == "place":  # AC-Teach's: gripper closed, always heading for the goal
+        return ScriptedTeacher(ac_teach_place_actions, "place")
+    if name == "pick-region":  # optimal when not holding the box (region 0), random otherwise
+        return PartialTeacher(optimal, region_of, [0], action_space, seed, name=name)
+    if name == "place-region":  # optimal when holding the box (region 1), random otherwise
+        return PartialTeacher(optimal, region_of, [1], action_space, seed, name=name)
     if name == "random":
         return RandomTeacher(action_space, seed, name="random")
     raise UnknownNameError("teacher for pickplace", name, TEACHER_NAMES)
