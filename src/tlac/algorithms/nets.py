@@ -79,8 +79,7 @@ class StackedMLP(nn.Module):
         # plain Python references to the same tensors: indexing a ParameterList costs more
         # than the matmul it feeds (load_state_dict copies in place, so they stay valid)
         self._layers = [
-            (w, b, masks[i])
-            for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True))
+            (w, b, masks[i]) for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True))
         ]
         # NumPy views of the same memory, for acting: one small NumPy matmul costs ~1 us of
         # overhead against ~5 us for a PyTorch op, and acting needs no gradient. The

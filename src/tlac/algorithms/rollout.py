@@ -30,6 +30,7 @@ class Rollout:
     advantages: np.ndarray  # (T, E), filled by compute_gae
     returns: np.ndarray  # (T, E), filled by compute_gae
     solo: np.ndarray  # (T, E) float32: 1 in an episode the student plays alone (graduation)
+    net_obs: np.ndarray  # (T, E, obs_dim) float32: what the networks saw (normalised), if not obs
 
     @classmethod
     def empty(
@@ -49,6 +50,7 @@ class Rollout:
             advantages=z(*te),
             returns=z(*te),
             solo=z(*te),
+            net_obs=z(*te, obs_dim),
         )
 
     def flat(self) -> dict[str, torch.Tensor]:

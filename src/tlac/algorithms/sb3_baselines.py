@@ -39,7 +39,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.logger import KVWriter, Logger
 from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
-from stable_baselines3.common.vec_env import VecEnv
+from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 from tlac.algorithms.callbacks import split_callbacks
 from tlac.algorithms.common import check_plain_numbers, stop_if_not_finite
@@ -133,6 +133,22 @@ def sb3_kwargs(algo: str, hp: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+NORMALIZATION_SUFFIX = ".normalization.npz"
+"""Beside ``model.zip``: the observation statistics of a model trained with ``normalize``."""
+
+
+def _normalize_setting(algo: str, value: Any) -> bool:
+    if not isinstance(value, bool):
+        raise ConfigError(f"{algo} setting normalize must be true or false, got {value!r}")
+    return value
+
+
+def normalize_observation(obs: np.ndarray, stats: dict[str, np.ndarray]) -> np.ndarray:
+    """VecNormalize's ``normalize_obs`` from saved statistics."""
+    scaled = (np.asarray(obs) - stats["mean"]) / np.sqrt(stats["var"] + stats["epsilon"])
+    return np.clip(scaled, -stats["clip"], stats["clip"]).astype(np.float32)
+
+
 class _RecorderWriter(KVWriter):
     """Forwards SB3's logged scalars (``train/``, ``rollout/``, ``time/``) to the run folder's
     ``progress.csv`` through :meth:`Recorder.record_metrics`."""
@@ -210,7 +226,11 @@ class _SB3Baseline:
             )
         self.hyperparameters = dict(hyperparameters)
         self.hyperparameters.pop("n_envs", None)
+        normalize = _normalize_setting(self.name, self.hyperparameters.pop("normalize", False))
         kwargs = sb3_kwargs(self.name, self.hyperparameters)
+        self._obs_stats: dict[str, np.ndarray] | None = None
+        if normalize:  # rl-zoo's `normalize: true`: observations and rewards, VecNormalize
+            env = VecNormalize(env, gamma=float(kwargs.get("gamma", 0.99)))
         self._target_kl_schedule: Schedule | None = kwargs.pop("_target_kl_schedule", None)
         self.seed, self.recorder = seed, recorder
         sb3_cls = _SB3_CLASSES[self.name]
@@ -222,7 +242,9 @@ class _SB3Baseline:
     @classmethod
     def check_hyperparameters(cls, hyperparameters: dict[str, Any]) -> None:
         """Raise ConfigError for a bad setting, before anything is built or written."""
-        sb3_kwargs(cls.name, {k: v for k, v in hyperparameters.items() if k != "n_envs"})
+        _normalize_setting(cls.name, hyperparameters.get("normalize", False))
+        skip = ("n_envs", "normalize")
+        sb3_kwargs(cls.name, {k: v for k, v in hyperparameters.items() if k not in skip})
 
     def _attach_recorder(self) -> None:
         if self.recorder is not None:
@@ -268,9 +290,24 @@ class _SB3Baseline:
         episode_start: Any = None,
         deterministic: bool = False,
     ) -> tuple[np.ndarray, None]:
-        """The policy's actions (no teacher is involved), with SB3's signature and defaults."""
+        """The policy's actions (no teacher is involved), with SB3's signature and defaults.
+        With ``normalize``, the observations are normalised with the training statistics."""
+        stats = self._normalization_stats()
+        if stats is not None:
+            observation = normalize_observation(observation, stats)
         actions, _ = self.model.predict(observation, deterministic=deterministic)
         return np.asarray(actions), None
+
+    def _normalization_stats(self) -> dict[str, np.ndarray] | None:
+        venv = self.model.get_vec_normalize_env()
+        if venv is not None:
+            return {
+                "mean": venv.obs_rms.mean,
+                "var": venv.obs_rms.var,
+                "clip": np.array(venv.clip_obs),
+                "epsilon": np.array(venv.epsilon),
+            }
+        return self._obs_stats
 
     def save(self, path: str | Path) -> Path:
         """Write ``path`` + ``.zip`` (SB3's format; the optimizer state included) and return
@@ -278,6 +315,10 @@ class _SB3Baseline:
         p = Path(path)
         stem = p.with_suffix("") if p.suffix == ".zip" else p
         self.model.save(str(stem))
+        stats = self._normalization_stats()
+        if stats is not None:  # beside the model: predict needs them
+            with open(stem.with_name(stem.name + NORMALIZATION_SUFFIX), "wb") as f:
+                np.savez(f, **stats)
         return stem.with_name(stem.name + ".zip")
 
     @classmethod
@@ -294,6 +335,8 @@ class _SB3Baseline:
         obj.hyperparameters, obj.seed, obj.recorder = {}, 0, None
         obj._target_kl_schedule = None
         obj.model = _SB3_CLASSES[cls.name].load(str(p), env=env, device="cpu")
+        stats = p.with_name(p.name.removesuffix(".zip") + NORMALIZATION_SUFFIX)
+        obj._obs_stats = dict(np.load(stats)) if stats.exists() else None
         return obj
 
 

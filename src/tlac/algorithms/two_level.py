@@ -63,6 +63,7 @@ from tlac.algorithms.nets import (
     np_log_softmax,
     np_sample_categorical,
 )
+from tlac.algorithms.normalization import Normalizer
 from tlac.algorithms.resume import (
     attributes_state,
     generator_states,
@@ -192,6 +193,15 @@ class TLACConfig:
     min(1, solo_budget / (1 - competence)), competence measured from recent solo and assisted
     returns (tlac.algorithms.graduation), so solo play costs the training return about
     solo_budget of the teachers' margin. None: the variant's (graduate 0.05, paper 0)."""
+    normalize_obs: bool = False
+    """Normalise the networks' observations by their running mean and std (SB3's VecNormalize,
+    clipped to +-norm_clip), inside TL-AC: teachers still see raw observations. Not with a
+    one-hot obs_encoding (categories have no scale)."""
+    normalize_reward: bool = False
+    """Divide training rewards by the running std of the discounted return (SB3's
+    VecNormalize); logged returns stay raw."""
+    norm_clip: float = 10.0
+    """Clip of the normalised observations and rewards."""
     imitation_std: float = 0.1
     """Box actions: the imitation term is the negative log-likelihood of the teachers' actions
     under a Gaussian around the low level's mean with this fixed standard deviation, in units
@@ -305,6 +315,8 @@ class TLACConfig:
             raise UnknownNameError("obs_encoding", self.obs_encoding, list(ENCODINGS))
         if not self.awr_beta > 0:  # also rejects NaN
             raise ConfigError(f"TL-AC setting awr_beta must be > 0, got {self.awr_beta!r}")
+        if not self.norm_clip > 0:  # also rejects NaN
+            raise ConfigError(f"TL-AC setting norm_clip must be > 0, got {self.norm_clip!r}")
         if not self.imitation_std > 0:  # also rejects NaN
             raise ConfigError(
                 f"TL-AC setting imitation_std must be > 0, got {self.imitation_std!r}"
@@ -550,6 +562,21 @@ class TLAC(SB3Compat):
         self.obs_dim = int(np.prod(obs_space.shape))
         self.encoder = make_encoder(cfg.obs_encoding, obs_space)
         net_in = self.obs_dim if self.encoder is None else self.encoder.out_dim
+        if cfg.normalize_obs and self.encoder is not None:
+            raise ConfigError(
+                "normalize_obs needs raw observations, but obs_encoding "
+                f"{cfg.obs_encoding!r} one-hot encodes this space; set obs_encoding: raw"
+            )
+        self.normalizer: Normalizer | None = None
+        if cfg.normalize_obs or cfg.normalize_reward:
+            self.normalizer = Normalizer(
+                self.obs_dim,
+                getattr(self, "n_envs", 1),
+                cfg.gamma,
+                cfg.normalize_obs,
+                cfg.normalize_reward,
+                cfg.norm_clip,
+            )
         self.discrete = isinstance(action_space, gym.spaces.Discrete)
         if self.discrete:
             low_out = int(action_space.n)
@@ -657,6 +684,8 @@ class TLAC(SB3Compat):
     def _replay_heads(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """What the imitation term needs on replayed states: (high logits without gradient,
         low output, low-level last hidden layer), computing only those two members."""
+        if self.normalizer is not None:
+            obs = self.normalizer.obs_torch(obs)
         x = obs if self.encoder is None else self.encoder.torch(obs)
         with torch.no_grad():
             high = self.net.forward_member(x, HIGH)[0][:, : self.n_choices]
@@ -666,6 +695,8 @@ class TLAC(SB3Compat):
     def _act_heads(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Acting pass: the same four heads as :meth:`_heads`, in NumPy, without autograd."""
         x = np.asarray(obs, dtype=np.float32).reshape(-1, self.obs_dim)
+        if self.normalizer is not None:
+            x = self.normalizer.obs_numpy(x)
         if self.encoder is not None:
             x = self.encoder.numpy(x)
         out, hidden = self.net.forward_numpy(x)
@@ -870,6 +901,9 @@ class TLAC(SB3Compat):
             if cfg.use_sde and cfg.sde_sample_freq > 0 and t > 0 and t % cfg.sde_sample_freq == 0:
                 self._resample_sde_noise()
             obs = np.asarray(self._last_obs, dtype=np.float32).reshape(E, self.obs_dim)
+            if self.normalizer is not None:  # statistics of what the networks see, as VecNormalize
+                self.normalizer.update_obs(obs)
+                ro.net_obs[t] = self.normalizer.obs_numpy(obs)
             high_logits, low_out, values, latent = self._act_heads(obs)
             choices = self.selector.select(high_logits, self._episode_starts)  # line 14
             if self.solo is not None:  # graduate variant: some episodes are the student's alone
@@ -887,6 +921,8 @@ class TLAC(SB3Compat):
             self.num_timesteps += E
             rewards = np.asarray(rewards, dtype=np.float32).copy()
             self._episode_returns += rewards
+            if self.normalizer is not None:  # the training rewards only; returns stay raw
+                rewards = self.normalizer.scale_rewards(rewards, dones)
             for i in np.flatnonzero(dones):
                 final = infos[i].get("terminal_observation")
                 if infos[i].get("TimeLimit.truncated", False) and final is not None:
@@ -972,7 +1008,8 @@ class TLAC(SB3Compat):
                     adv = losses.normalize(adv)
                 if high_adv_shift is not None and self.train_high:
                     adv = torch.stack([adv, adv - high_adv_shift[idx]])  # per level: (2, B)
-                high_logits, low_out, values, latent = self._heads(data["obs"][idx])
+                net_obs = data["obs"] if self.normalizer is None else data["net_obs"]
+                high_logits, low_out, values, latent = self._heads(net_obs[idx])
                 # low level, Eq. 3: log pi_low(a|s) A(s, a) on the EXECUTED actions
                 lp_low = self._low_log_prob(low_out, latent, data["actions"][idx])
                 if self.train_high:
@@ -1208,6 +1245,7 @@ class TLAC(SB3Compat):
             "net": self.net.state_dict(),
             "log_std": None if self.log_std is None else self.log_std.detach().clone(),
             "optimizer": self.optimizer.state_dict(),
+            "normalizer": None if self.normalizer is None else self.normalizer.state(),
         }
         if training_state:
             state["training"] = self._training_state()
@@ -1337,6 +1375,10 @@ class TLAC(SB3Compat):
             with torch.no_grad():
                 model.log_std.copy_(state["log_std"])
         model.optimizer.load_state_dict(state["optimizer"])
+        if model.normalizer is not None:
+            if state.get("normalizer") is None:
+                raise ConfigError(f"{path} was saved without its normalisation statistics")
+            model.normalizer.set_state(state["normalizer"])
         if resume:
             if "training" not in state:
                 raise ConfigError(

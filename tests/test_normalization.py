@@ -1,0 +1,96 @@
+"""Observation / reward normalisation inside TL-AC (SB3 VecNormalize's statistics), with the
+teachers still given raw observations."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from stable_baselines3.common.running_mean_std import RunningMeanStd as SB3RunningMeanStd
+
+from tlac import TLAC
+from tlac.algorithms.normalization import Normalizer, RunningMeanStd
+from tlac.errors import ConfigError
+
+
+def test_running_mean_std_equals_sb3s_on_a_stream_of_batches() -> None:
+    rng = np.random.default_rng(0)
+    ours, sb3 = RunningMeanStd((3,)), SB3RunningMeanStd(shape=(3,))
+    for _ in range(20):
+        batch = rng.normal(5.0, 3.0, size=(int(rng.integers(1, 9)), 3))
+        ours.update(batch)
+        sb3.update(batch)
+    np.testing.assert_allclose(ours.mean, sb3.mean)
+    np.testing.assert_allclose(ours.var, sb3.var)
+
+
+def test_reward_scaling_by_hand() -> None:
+    norm = Normalizer(1, 2, gamma=0.5, obs=False, reward=True, clip=10.0)
+    first = norm.scale_rewards(np.array([2.0, 4.0], np.float32), np.array([False, True]))
+    # returns [2, 4]: count 1e-4 + 2, mean ~3, var ~1 -> rewards / sqrt(var + 1e-8)
+    var = norm.ret_rms.var
+    np.testing.assert_allclose(first, np.array([2.0, 4.0]) / np.sqrt(var + 1e-8), rtol=1e-6)
+    assert norm.returns.tolist() == [2.0, 0.0]  # the second episode ended: its return resets
+    norm.scale_rewards(np.array([1.0, 1.0], np.float32), np.array([False, False]))
+    assert norm.returns.tolist() == [2.0, 1.0]  # 0.5 * 2 + 1, 0.5 * 0 + 1
+
+
+class _Shifted(gym.ObservationWrapper):
+    """Pendulum with every observation shifted by +100: raw and normalised obs differ plainly."""
+
+    def __init__(self, env: gym.Env):
+        super().__init__(env)
+        low, high = env.observation_space.low + 100, env.observation_space.high + 100
+        self.observation_space = gym.spaces.Box(low, high, dtype=np.float32)
+
+    def observation(self, obs: np.ndarray) -> np.ndarray:
+        return (obs + 100.0).astype(np.float32)
+
+
+def test_teachers_see_raw_observations_and_the_statistics_are_saved(tmp_path) -> None:
+    seen: list[np.ndarray] = []
+
+    def teacher(obs: np.ndarray) -> np.ndarray:
+        seen.append(np.asarray(obs).copy())
+        return np.zeros(1, dtype=np.float32)
+
+    env = _Shifted(gym.make("Pendulum-v1"))
+    model = TLAC(
+        env, teachers=[teacher], seed=0, normalize_obs=True, normalize_reward=True, n_steps=32
+    )
+    model.learn(640, progress_bar=False)
+    assert len(seen) > 10 and min(float(o.min()) for o in seen) > 90.0  # raw: shifted by 100
+    mean = model.normalizer.obs_rms.mean
+    assert mean.min() > 90.0  # the statistics are of the raw observations
+    obs = np.stack([env.observation_space.sample() for _ in range(5)])
+    x = model.normalizer.obs_numpy(obs.astype(np.float32))
+    assert np.abs(x).max() <= 10.0 and np.abs(x.mean()) < np.abs(obs.mean())
+    before = model.predict(obs, deterministic=True)[0]
+    loaded = TLAC.load(model.save(tmp_path / "m"))
+    np.testing.assert_array_equal(loaded.predict(obs, deterministic=True)[0], before)
+    np.testing.assert_array_equal(loaded.normalizer.obs_rms.mean, mean)
+
+
+def test_normalize_obs_refuses_one_hot_categories() -> None:
+    with pytest.raises(ConfigError, match="normalize_obs needs raw observations"):
+        TLAC("doorkey", normalize_obs=True, obs_encoding="onehot")
+    TLAC("doorkey", normalize_obs=True, obs_encoding="raw")  # raw indices may be normalised
+
+
+def test_a2c_normalize_wraps_vecnormalize_and_predicts_from_saved_statistics(tmp_path) -> None:
+    from stable_baselines3.common.env_util import make_vec_env
+
+    from tlac.algorithms.sb3_baselines import A2CBaseline
+
+    env = make_vec_env(lambda: _Shifted(gym.make("Pendulum-v1")), n_envs=2, seed=0)
+    model = A2CBaseline(env, seed=0, normalize=True, n_steps=8)
+    model.learn(400)
+    venv = model.model.get_vec_normalize_env()
+    assert venv is not None and venv.obs_rms.mean.min() > 90.0  # raw statistics
+    obs = np.stack([env.observation_space.sample() for _ in range(4)])
+    expected = model.model.predict(venv.normalize_obs(obs), deterministic=True)[0]
+    np.testing.assert_array_equal(model.predict(obs, deterministic=True)[0], expected)
+    loaded = A2CBaseline.load(model.save(tmp_path / "a2c"))
+    np.testing.assert_allclose(loaded.predict(obs, deterministic=True)[0], expected, rtol=1e-6)
+    with pytest.raises(ConfigError, match="normalize must be true or false"):
+        A2CBaseline.check_hyperparameters({"normalize": "yes"})
