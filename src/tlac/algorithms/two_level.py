@@ -103,7 +103,10 @@ VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
         "advice_cost": 0.0,
         "low_level_data": "all",
         "solo_budget": 0.0,
-        "kl_rows": "agent",
+        # the low level's KL over ALL rows, as an implementation on SB3's PPO computes it (the
+        # paper's tables are SB3's settings); "agent" was the default until issue 9 measured
+        # that it lets pi_low's entropy collapse with imperfect teachers (docs/reproduction.md)
+        "kl_rows": "all",
         "obs_encoding": "raw",
         "ent_cap_high": 0.0,  # no cap (ent_coef_high stays the preset's, ent_coef)
     },
