@@ -315,7 +315,7 @@ CLI_CASES += [
     (["teacher", "eval", "doorkey", "--teachers", ",,"], "--teachers"),
     (["teacher", "eval", "doorkey", "--episodes", "0"], "--episodes"),
     (["teacher", "eval", "doorkey", "--n-envs", "0"], "--n-envs"),
-    (["teacher", "train", "doorkey", "--steps", "10"], "'doorkey'"),
+    (["teacher", "train", "pickplace", "--steps", "10"], "'pickplace'"),
     (["teacher", "train", "hopper-bullet", "--steps", "0"], "--steps"),
     (["teacher", "train", "hopper-bullet", "--time-limit", "-5"], "--time-limit"),
     # no command, unknown command
