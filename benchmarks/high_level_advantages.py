@@ -28,7 +28,7 @@ def main() -> None:
     torch.set_num_threads(1)
     from tlac import TLAC
     from tlac.algorithms import losses
-    from tlac.envs.doorkey import region_of
+    from tlac.domains.doorkey.env import region_of
 
     settings = {k: float(v) for k, v in (s.split("=", 1) for s in args.set)}
     model = TLAC("doorkey", teachers=["L", "R"], seed=args.seed, variant=args.variant, **settings)

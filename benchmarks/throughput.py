@@ -66,9 +66,8 @@ def make_tlac(seed: int, variant: str):
 def make_sb3_ppo(seed: int):
     from stable_baselines3 import PPO
 
-    from tlac.envs import get_domain
+    from tlac.domains import get_domain, make_vec_env
     from tlac.presets import load_preset
-    from tlac.run import make_vec_env
 
     preset = load_preset("doorkey", "tlac")
     env = make_vec_env(get_domain("doorkey"), preset["n_envs"], seed, None)

@@ -19,7 +19,7 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 
-from tlac.envs import Domain
+from tlac.domains import Domain
 from tlac.teachers.base import Teacher, as_teacher
 from tlac.teachers.wrappers import RandomTeacher
 

@@ -418,7 +418,7 @@ def doorkey_run(algo_cls: type, teachers: list[str], steps: int, **overrides) ->
     """Train on DoorKey; return the mean training return of the last 20 episodes (teacher
     actions included, as the paper reports) and the high level's choice fractions over the
     last quarter of training."""
-    from tlac.envs import get_domain, make_teachers
+    from tlac.domains import get_domain, make_teachers
 
     domain = get_domain("doorkey")
     venv = DummyVecEnv([domain.make_env])

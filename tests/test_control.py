@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from tlac.envs import get_domain, make_teachers
+from tlac.domains import get_domain, make_teachers
 from tlac.errors import ConfigError, TeacherError, UnknownNameError
 from tlac.teachers.base import check_actions
 
@@ -52,7 +52,7 @@ def test_hopper_spaces() -> None:
 
 
 def test_pickplace_goal_fixed_and_start_ranges() -> None:
-    from tlac.envs.pickplace import GOAL
+    from tlac.domains.pickplace.env import GOAL
 
     env = get_domain("pickplace").make_env()
     assert env.observation_space.shape == (25,) and env.action_space.shape == (4,)
@@ -103,7 +103,7 @@ def test_pickplace_teachers_reach_documented_returns() -> None:
 
 
 def test_pickplace_regions_flip_when_grasping() -> None:
-    from tlac.envs.pickplace import REGION_NAMES
+    from tlac.domains.pickplace.env import REGION_NAMES
 
     domain = get_domain("pickplace")
     assert domain.region_names == REGION_NAMES == ("not_holding", "holding")
@@ -120,7 +120,7 @@ def test_pickplace_regions_flip_when_grasping() -> None:
 
 def test_pickplace_region_teachers() -> None:
     """pick-region / place-region follow the optimal teacher in their region only."""
-    from tlac.teachers.pickplace import optimal_actions
+    from tlac.domains.pickplace.teachers import optimal_actions
 
     domain = get_domain("pickplace")
     env = domain.make_env()
@@ -141,8 +141,8 @@ def test_pickplace_ac_teach_pick_and_place_teachers() -> None:
     """AC-Teach's partial teachers: pick grasps the box and carries it back to its start (never
     to the goal); place keeps the gripper closed and heads for the goal: alone it never
     grasps, but handed a held box it delivers it."""
-    from tlac.envs.pickplace import GOAL, OBJECT_START_XY
-    from tlac.teachers.pickplace import optimal_actions
+    from tlac.domains.pickplace.env import GOAL, OBJECT_START_XY
+    from tlac.domains.pickplace.teachers import optimal_actions
 
     domain = get_domain("pickplace")
     env = domain.make_env()
@@ -229,7 +229,7 @@ def test_train_teacher_rejects_bad_input(tmp_path) -> None:
 
 
 def _parser() -> argparse.ArgumentParser:
-    from tlac.teachers.cli import register
+    from tlac.cli.teacher import register
 
     parser = argparse.ArgumentParser(prog="tlac")
     register(parser.add_subparsers(dest="command"))

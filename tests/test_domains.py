@@ -13,7 +13,7 @@ import pytest
 
 import tlac
 from tlac import TLAC
-from tlac.envs import domain_names, get_domain, register_domain
+from tlac.domains import domain_names, get_domain, register_domain
 from tlac.errors import ConfigError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -52,14 +52,14 @@ def test_bad_domains_are_refused(bad: dict, match: str) -> None:
     example = get_domain(f"{EXAMPLE}:DOMAIN")
     with pytest.raises(ConfigError, match=match):
         register_domain(dataclasses.replace(example, **bad))
-    with pytest.raises(ConfigError, match="takes a tlac.envs.Domain"):
+    with pytest.raises(ConfigError, match="takes a tlac.domains.Domain"):
         register_domain("doorkey")  # type: ignore[arg-type]
 
 
 def test_a_domain_file_that_is_not_there_or_not_a_domain() -> None:
     with pytest.raises(ConfigError, match="cannot import"):
         get_domain("no/such/file.py:DOMAIN")
-    with pytest.raises(ConfigError, match="is not a tlac.envs.Domain"):
+    with pytest.raises(ConfigError, match="is not a tlac.domains.Domain"):
         get_domain(f"{EXAMPLE}:pd_controller")
 
 

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-import tlac.envs.doorkey
-import tlac.teachers.doorkey
-from tlac.envs import get_domain, make_teachers
-from tlac.envs.doorkey import (
+import tlac.domains.doorkey.env
+import tlac.domains.doorkey.planner
+from tlac.domains import get_domain, make_teachers
+from tlac.domains.doorkey.env import (
     AGENT,
     DOMAIN,
     DOOR,
@@ -33,9 +33,9 @@ from tlac.envs.doorkey import (
     obs_to_grid,
     region_of,
 )
+from tlac.domains.doorkey.planner import DoorKeyOptimalTeacher, plan_first_action
 from tlac.errors import UnknownNameError
 from tlac.teachers.base import check_actions
-from tlac.teachers.doorkey import DoorKeyOptimalTeacher, plan_first_action
 from tlac.teachers.wrappers import MixedRandomTeacher, PartialTeacher
 
 
@@ -453,7 +453,7 @@ def test_partial_teachers_cover_their_rooms(env):
     np.testing.assert_array_equal(R.predict(batch)[regions == 1], best[regions == 1])
 
 
-@pytest.mark.parametrize("module", [tlac.envs.doorkey, tlac.teachers.doorkey])
+@pytest.mark.parametrize("module", [tlac.domains.doorkey.env, tlac.domains.doorkey.planner])
 def test_doctests(module):
     result = doctest.testmod(module)
     assert result.attempted > 0 and result.failed == 0

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tlac.envs.doorkey import make_doorkey_env, make_reference_doorkey_env
+from tlac.domains.doorkey.env import make_doorkey_env, make_reference_doorkey_env
 
 
 def test_fast_full_observation_equals_minigrids_fully_obs_wrapper():

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from tlac.envs import get_domain, make_teachers
-from tlac.envs.doorkey import make_doorkey_env
-from tlac.envs.doorkey_view import partial_view
+from tlac.domains import get_domain, make_teachers
+from tlac.domains.doorkey.env import make_doorkey_env
+from tlac.domains.doorkey.planner import DoorKeyOptimalTeacher
+from tlac.domains.doorkey.view import partial_view
 from tlac.errors import TeacherError, UnknownNameError
-from tlac.teachers.doorkey import DoorKeyOptimalTeacher
 
 
 def test_partial_view_equals_minigrid_gen_obs_on_random_and_teacher_states() -> None:

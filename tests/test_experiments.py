@@ -258,7 +258,7 @@ def check_report(out: Path, paper: bool = True) -> str:
 
 
 def start_grid(cfg_path: Path, out: Path, workers: int) -> subprocess.Popen:
-    cmd = [sys.executable, "-m", "tlac.experiments.cli", "experiment", "run", str(cfg_path)]
+    cmd = [sys.executable, "-m", "tlac", "experiment", "run", str(cfg_path)]
     cmd += ["--out", str(out), "--workers", str(workers)]
     return subprocess.Popen(
         cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True

@@ -15,7 +15,7 @@ from tlac.algorithms import losses
 from tlac.algorithms.encoding import OneHotEncoder, make_encoder
 from tlac.algorithms.graduation import AdviceBuffer, SoloEpisodes, competence, solo_probability
 from tlac.algorithms.two_level import VARIANT_DEFAULTS, TLACConfig
-from tlac.envs import get_domain
+from tlac.domains import get_domain
 from tlac.errors import ConfigError
 from tlac.evaluation import evaluate_student
 from tlac.presets import load_preset
@@ -223,7 +223,7 @@ def test_one_hot_encoder_numpy_equals_torch_and_hand_made():
 def _teacher_likelihood(model_settings: dict, steps: int = 8000) -> float:
     """Mean probability the student gives the optimal teacher's actions on 300 of that
     teacher's own DoorKey states, after ``steps`` steps with that teacher alone."""
-    from tlac.envs import make_teachers
+    from tlac.domains import make_teachers
 
     domain = get_domain("doorkey")
     env = domain.make_env()

@@ -15,10 +15,10 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 
 from tlac.algorithms import get_algorithm
 from tlac.algorithms.off_policy import ReplayBuffer
-from tlac.envs import get_domain, make_teachers
+from tlac.domains import get_domain, make_teachers, make_vec_env
 from tlac.errors import ConfigError, TlacError
 from tlac.recording import EpisodeRecorder
-from tlac.run import RunSpec, make_vec_env, resume_run, train_run
+from tlac.run import RunSpec, resume_run, train_run
 from tlac.teachers.wrappers import RandomTeacher
 
 # sha256 (first 16 hex digits) of episodes.csv, computed on main before the shared plumbing

@@ -10,7 +10,8 @@ import pytest
 
 import tlac.teachers.measure
 import tlac.teachers.wrappers
-from tlac.envs.doorkey import make_doorkey_env, region_of
+from tlac.domains.doorkey.env import make_doorkey_env, region_of
+from tlac.domains.doorkey.planner import DoorKeyOptimalTeacher
 from tlac.errors import ConfigError, TeacherError
 from tlac.teachers import (
     GaussianNoiseTeacher,
@@ -19,10 +20,9 @@ from tlac.teachers import (
     RandomTeacher,
     as_teacher,
     check_actions,
-    measure_teacher,
 )
 from tlac.teachers.base import FunctionTeacher
-from tlac.teachers.doorkey import DoorKeyOptimalTeacher
+from tlac.teachers.measure import measure_teacher
 
 N_SAMPLES = 6000
 SIX = gym.spaces.Discrete(6)

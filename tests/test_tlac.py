@@ -34,7 +34,7 @@ def test_discrete_smoke_with_recorder(tmp_path):
         tmp_path,
         ["optimal", "random", "agent"],
         ("left", "right"),
-        __import__("tlac.envs.doorkey", fromlist=["region_of"]).region_of,
+        __import__("tlac.domains.doorkey.env", fromlist=["region_of"]).region_of,
         log_interval=64,
     )
     model = TLAC(
@@ -183,7 +183,7 @@ def test_same_seed_same_learning_curve():
     ],
 )
 def test_bad_teacher_actions_stop_training_naming_the_teacher(advice, match):
-    from tlac.envs import get_domain
+    from tlac.domains import get_domain
 
     env = get_domain("doorkey").make_env()
     bad = lambda obs: advice(obs)  # noqa: E731
@@ -230,7 +230,7 @@ def test_learns_to_trust_the_optimal_teacher_on_doorkey(tmp_path):
     included, the paper's metric) must beat what RANDOM teacher selection reaches with the
     same teachers (0.85-0.88 measured at 5-15k steps), and the learned high level must pick
     the optimal teacher far more often than uniform selection (1/4)."""
-    from tlac.envs.doorkey import REGION_NAMES, region_of
+    from tlac.domains.doorkey.env import REGION_NAMES, region_of
 
     rec = Recorder(
         tmp_path,
@@ -339,7 +339,7 @@ def test_a_diverging_run_stops_with_a_training_error_and_takes_no_nan_step():
 def test_tlac_learns_on_a_subprocvecenv_with_two_processes():
     from stable_baselines3.common.vec_env import SubprocVecEnv
 
-    from tlac.envs import get_domain
+    from tlac.domains import get_domain
 
     domain = get_domain("doorkey")
     env = SubprocVecEnv([domain.make_env, domain.make_env])

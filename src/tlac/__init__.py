@@ -18,7 +18,7 @@ __all__ = ["TLAC", "Domain", "TLACConfig", "__version__", "register_domain"]
 
 if TYPE_CHECKING:
     from tlac.algorithms.two_level import TLAC, TLACConfig
-    from tlac.envs import Domain, register_domain
+    from tlac.domains import Domain, register_domain
 
 
 def __getattr__(name: str) -> Any:  # lazy: `import tlac` stays cheap for the CLI
@@ -35,7 +35,7 @@ def __getattr__(name: str) -> Any:  # lazy: `import tlac` stays cheap for the CL
 
 def _register_gym_ids() -> None:
     """``gym.make("tlac/DoorKey-v0")`` and the other domains' ids work after ``import tlac``."""
-    from tlac.envs import register_gym_ids
+    from tlac.domains import register_gym_ids
 
     register_gym_ids()
 

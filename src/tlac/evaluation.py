@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from tlac.envs import Domain
+from tlac.domains import Domain
 
 
 def evaluate_policy(

@@ -25,15 +25,14 @@ import numpy as np
 import torch
 import yaml
 from filelock import FileLock, Timeout
-from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 from tlac.algorithms import NO_ADVICE, get_algorithm
 from tlac.algorithms.common import check_seed, safe_torch_load
-from tlac.envs import Domain, get_domain, make_teachers, parse_teacher_spec
+from tlac.domains import Domain, get_domain, make_teachers, make_vec_env, parse_teacher_spec
 from tlac.errors import ConfigError, UnknownNameError, read_yaml_file
 from tlac.evaluation import evaluate_student
 from tlac.presets import load_preset
-from tlac.recording import MONITOR_FILE, EpisodeRecorder, Recorder
+from tlac.recording import MONITOR_FILE, Recorder
 
 SELECTORS = ("learned", "random", "ucb1")
 RESULT_FILE = "result.json"
@@ -143,24 +142,6 @@ def hyperparameters(spec: RunSpec) -> dict[str, Any]:
     if spec.algo == "tlac":
         hp["selector"] = spec.selector
     return hp
-
-
-def make_vec_env(
-    domain: Domain,
-    n_envs: int,
-    seed: int,
-    episodes_csv: Path | None,
-    subprocesses: bool = False,
-) -> EpisodeRecorder:
-    """``n_envs`` copies of the domain's env in a DummyVecEnv (or, with ``subprocesses``, a
-    SubprocVecEnv: one process each), seeded ``seed + i``, recording finished episodes to
-    ``episodes_csv``."""
-    if not isinstance(n_envs, int) or n_envs <= 0:
-        raise ConfigError(f"n_envs must be a positive integer, got {n_envs!r}")
-    factories = [domain.make_env for _ in range(n_envs)]
-    venv = SubprocVecEnv(factories) if subprocesses else DummyVecEnv(factories)
-    venv.seed(seed)
-    return EpisodeRecorder(venv, episodes_csv)
 
 
 def atomic_write_text(path: Path, text: str) -> None:

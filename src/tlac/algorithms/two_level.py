@@ -342,7 +342,7 @@ class TLACConfig:
 
 def domain_preset(name: str) -> dict[str, Any]:
     """The TL-AC settings of a named domain's preset (paper Tables 5, 8, 10)."""
-    from tlac.envs import get_domain
+    from tlac.domains import get_domain
 
     domain = get_domain(name)
     return load_preset(domain.presets["tlac"], "tlac") if "tlac" in domain.presets else {}
@@ -395,8 +395,7 @@ def _as_vec_env(env: Any, n_envs: int, seed: int, vec_env: str = "dummy") -> tup
     A domain name gets ``n_envs`` environments in a DummyVecEnv or (``vec_env="subproc"``) a
     SubprocVecEnv."""
     if isinstance(env, str):
-        from tlac.envs import get_domain
-        from tlac.run import make_vec_env
+        from tlac.domains import get_domain, make_vec_env
 
         domain = get_domain(env)
         return make_vec_env(domain, n_envs, seed, None, subprocesses=vec_env == "subproc"), domain
@@ -544,7 +543,7 @@ class TLAC(SB3Compat):
                 raise ConfigError(
                     "teacher names need env to be a domain name, e.g. TLAC('doorkey', ['optimal'])"
                 )
-            from tlac.envs import make_teachers
+            from tlac.domains import make_teachers
 
             return make_teachers(domain, list(teachers), domain.make_env(), seed)
         names = unique_names([_teacher_label(t, i) for i, t in enumerate(teachers)])

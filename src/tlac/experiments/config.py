@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from tlac.algorithms import NO_ADVICE, algorithm_names
-from tlac.envs import domain_names, get_domain
+from tlac.domains import domain_names, get_domain
 from tlac.errors import ConfigError, TlacError, read_yaml_file
 from tlac.presets import load_preset, preset_names
 from tlac.run import SELECTORS

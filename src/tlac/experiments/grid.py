@@ -36,7 +36,7 @@ def run_name(domain: str, teacher_set: str, algo_key: str, seed: int) -> str:
     """The run's folder name. A domain given as ``module:attribute`` or ``file.py:attribute``
     is named by its Domain's own name (a path must never become part of a folder name)."""
     if ":" in domain:
-        from tlac.envs import get_domain
+        from tlac.domains import get_domain
 
         domain = get_domain(domain).name
     return f"{domain}__{teacher_set}__{algo_key}__seed{seed}"

@@ -209,7 +209,7 @@ def evaluate_teachers(config: ExperimentConfig, out: Path) -> dict[str, Any]:
     todo = [k for k in kinds if k not in data or "error" in data[k]]
     if not todo or config.teacher_eval_episodes == 0:
         return data
-    from tlac.envs import get_domain
+    from tlac.domains import get_domain
     from tlac.evaluation import evaluate_policy
 
     domain = get_domain(config.domain)

@@ -1,10 +1,10 @@
-"""Teachers: the protocol, the generic wrappers (good / noisy / random / partial) and
-teacher measurement. Domain-specific scripted teachers live in their own modules
-(:mod:`tlac.teachers.doorkey`, ...) and are built through each domain's ``make_teacher``.
+"""Teachers: the protocol, the generic wrappers (good / noisy / random / partial) and the
+shipped-policy teachers (:mod:`.sac`, :mod:`.ppo`). Domain-specific teachers live in their
+domain's package (:mod:`tlac.domains.doorkey.teachers`, ...) and are built through each
+domain's ``make_teacher``. Measuring a teacher on a domain: :mod:`tlac.teachers.measure`.
 """
 
 from tlac.teachers.base import Teacher, as_teacher, check_actions, unique_names
-from tlac.teachers.measure import measure_teacher
 from tlac.teachers.wrappers import (
     GaussianNoiseTeacher,
     MixedRandomTeacher,
@@ -21,7 +21,6 @@ __all__ = [
     "Teacher",
     "as_teacher",
     "check_actions",
-    "measure_teacher",
     "sample_uniform",
     "unique_names",
 ]

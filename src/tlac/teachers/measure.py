@@ -26,8 +26,8 @@ import numpy as np
 from tlac.errors import ConfigError, UnknownNameError
 from tlac.teachers.base import Teacher, as_teacher, check_actions
 
-if TYPE_CHECKING:  # tlac.envs imports this package: import it lazily at run time
-    from tlac.envs import Domain
+if TYPE_CHECKING:  # tlac.domains imports this package: import it lazily at run time
+    from tlac.domains import Domain
 
 SuccessFn = Callable[[float, dict[str, Any]], bool]
 
@@ -47,14 +47,14 @@ def measure_teacher(
 ) -> dict[str, Any]:
     """Run ``teacher`` alone for ``episodes`` episodes of ``domain``'s environment.
 
-    ``domain`` is a :class:`tlac.envs.Domain` or its name; ``teacher`` is a teacher name of
+    ``domain`` is a :class:`tlac.domains.Domain` or its name; ``teacher`` is a teacher name of
     the domain (built with ``domain.make_teacher(name, env, seed)``) or anything
     :func:`tlac.teachers.base.as_teacher` accepts. Returns a dict with ``mean``, ``std``
     (population std of the episode returns), ``success_rate`` (or None, see the module
     docstring), ``episodes``, ``mean_length`` and ``returns`` (one per episode, in episode
     order).
     """
-    from tlac.envs import Domain, get_domain
+    from tlac.domains import Domain, get_domain
 
     if isinstance(domain, str):
         domain = get_domain(domain)

@@ -6,14 +6,16 @@ doorkey`` trains stable-baselines3 PPO on MiniGrid's default observation, the ag
 7x7 view (the ``doorkey-partial`` domain), and ships the actor only: ``doorkey-ppo.pt`` (state
 dict) + ``doorkey-ppo.json`` (metadata and its measured return). :class:`PPOActorTeacher`
 rebuilds SB3's actor path (``action_net(policy_net(obs))``, tanh MLP) and acts greedily, as
-``PPO.predict(obs, deterministic=True)``; with ``view="partial"`` it first converts tlac's
-full-grid observation into the partial view it was trained on, so it advises a student that
-sees the full grid.
+``PPO.predict(obs, deterministic=True)``; with a ``transform`` it first converts each
+observation into the one it was trained on (DoorKey: the full grid into the agent's partial
+view, :func:`tlac.domains.doorkey.view.partial_view`), so it advises a student that sees
+something else.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -68,14 +70,12 @@ class PPOActorTeacher:
         self,
         actor: PPOActor,
         name: str = "ppo",
-        view: str = "partial",
+        transform: Callable[[np.ndarray], np.ndarray] | None = None,
         metadata: dict[str, Any] | None = None,
     ):
-        if view not in ("partial", "same"):
-            raise ValueError(f"view must be 'partial' or 'same', got {view!r}")
         self.actor = actor.eval()
         self.name = name
-        self.view = view
+        self.transform = transform
         self.metadata = dict(metadata or {})
 
     @classmethod
@@ -83,7 +83,7 @@ class PPOActorTeacher:
         cls,
         env_name: str = "doorkey",
         name: str = "ppo",
-        view: str = "partial",
+        transform: Callable[[np.ndarray], np.ndarray] | None = None,
         data_dir: Path | None = None,
     ) -> PPOActorTeacher:
         """Load ``<env>-ppo.pt`` / ``.json``; a missing file raises :class:`TeacherError`
@@ -98,14 +98,12 @@ class PPOActorTeacher:
         meta = json.loads(meta_path.read_text())
         actor = PPOActor(int(meta["obs_dim"]), int(meta["n_actions"]), list(meta["net_arch"]))
         actor.load_state_dict(torch.load(pt, map_location="cpu", weights_only=True))
-        return cls(actor, name, view, meta)
+        return cls(actor, name, transform, meta)
 
     @torch.inference_mode()
     def predict(self, obs: np.ndarray) -> np.ndarray:
         obs = np.asarray(obs)
-        if self.view == "partial":
-            from tlac.envs.doorkey_view import partial_view
-
-            obs = partial_view(obs)
+        if self.transform is not None:
+            obs = self.transform(obs)
         x = torch.as_tensor(np.asarray(obs, dtype=np.float32)).reshape(len(obs), -1)
         return self.actor(x).argmax(-1).numpy().astype(np.int64)

@@ -118,7 +118,7 @@ def evaluate_actor(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Run ``episodes`` episodes of a deterministic teacher; returns (returns, lengths).
     Episode ``i`` is reset with seed ``seed + i``."""
-    from tlac.envs import get_domain
+    from tlac.domains import get_domain
 
     env = get_domain(env_name).make_env()
     returns, lengths = [], []
@@ -184,7 +184,7 @@ def train_teacher(
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.monitor import Monitor
 
-    from tlac.envs import get_domain
+    from tlac.domains import get_domain
     from tlac.teachers.sac import SACActor, SACActorTeacher, actor_state_dict, weights_paths
 
     torch.set_num_threads(1)
@@ -331,7 +331,8 @@ def train_ppo_teacher(
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.env_util import make_vec_env as sb3_make_vec_env
 
-    from tlac.envs import get_domain
+    from tlac.domains import get_domain
+    from tlac.domains.doorkey.view import partial_view
     from tlac.teachers.ppo import PPOActor, PPOActorTeacher, ppo_actor_state_dict, ppo_weights_paths
 
     torch.set_num_threads(1)
@@ -398,14 +399,14 @@ def train_ppo_teacher(
     actor.load_state_dict(ppo_actor_state_dict(model.policy))
     # the rebuilt actor agrees with SB3's greedy predict on the view it was trained on
     probe = np.stack([env.observation_space.sample() for _ in range(16)])
-    teacher = PPOActorTeacher(actor, view="same")
+    teacher = PPOActorTeacher(actor)
     if not np.array_equal(model.predict(probe, deterministic=True)[0], teacher.predict(probe)):
         raise RuntimeError("exported PPO actor disagrees with stable-baselines3's predict")
     env.close()
 
     eval_seed = 1_000_000 + seed
     t0 = time.time()
-    greedy = PPOActorTeacher(actor, view="partial")
+    greedy = PPOActorTeacher(actor, transform=partial_view)
     returns, lengths = evaluate_actor(env_name, greedy, eval_episodes, eval_seed)
     sampled = _SampledPolicy(actor, seed)
     s_returns, _ = evaluate_actor(train_domain, sampled, eval_episodes, eval_seed)

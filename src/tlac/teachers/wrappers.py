@@ -197,7 +197,7 @@ class PartialTeacher:
 
     Where ``region_of(obs)`` is one of ``inside_regions`` the base teacher's action is
     returned, elsewhere a uniformly random action. ``region_of`` maps an observation batch
-    to integer region indices (a :class:`tlac.envs.Domain`'s ``region_of``).
+    to integer region indices (a :class:`tlac.domains.Domain`'s ``region_of``).
 
     >>> space = gym.spaces.Discrete(5)
     >>> left = PartialTeacher(lambda o: 4, lambda b: (b[:, 0] > 0).astype(int), [0], space, 0)

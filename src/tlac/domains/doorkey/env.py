@@ -42,9 +42,8 @@ from minigrid.core.constants import COLOR_TO_IDX, OBJECT_TO_IDX, STATE_TO_IDX
 from minigrid.envs import DoorKeyEnv
 from minigrid.wrappers import FullyObsWrapper
 
-from tlac.envs import Domain
-from tlac.errors import ConfigError, UnknownNameError
-from tlac.teachers.base import Teacher
+from tlac.domains.doorkey.view import VIEW, partial_view
+from tlac.errors import ConfigError
 
 GRID_SIZE = 7
 """Side of the square grid, outer walls included (the paper's DoorKey 7x7)."""
@@ -195,98 +194,19 @@ def region_of(obs_batch: np.ndarray) -> np.ndarray:
     return (agent_positions(grids)[:, 0] >= wall_columns(grids)).astype(np.int64)
 
 
-PPO_TEACHER_NAMES = ("ppo", "ppo-good", "ppo-noisy", "ppo-L", "ppo-R")
-"""The paper's teacher set derived from the shipped PPO agent (appendix A.1.1: a PPO policy
-trained for 1e6 steps, not an exactly optimal one); see :mod:`tlac.teachers.ppo`."""
-TEACHER_NAMES = ("optimal", "good", "noisy", "random", "L", "R", *PPO_TEACHER_NAMES)
 REGION_NAMES = ("left", "right")
-
-
-def _derived_teacher(
-    name: str, base_name: str, make_base: Any, space: gym.Space, seed: int
-) -> Teacher | None:
-    """The paper's construction (appendix A.1.1) on top of one base policy: ``<base>`` itself,
-    ``good`` / ``noisy`` (the base with probability 0.8 / 0.2, else uniformly random), ``L`` /
-    ``R`` (the base in the left / right room, random elsewhere). ``None`` if ``name`` is not
-    one of them."""
-    from tlac.teachers.wrappers import MixedRandomTeacher, PartialTeacher
-
-    prefix = "" if base_name == "optimal" else f"{base_name}-"
-    if name == base_name:
-        return make_base(name)
-    if name in (f"{prefix}good", f"{prefix}noisy"):
-        p = 0.8 if name.endswith("good") else 0.2
-        return MixedRandomTeacher(make_base(name), p, space, seed, name=name)
-    if name in (f"{prefix}L", f"{prefix}R"):
-        region = 0 if name.endswith("L") else 1
-        return PartialTeacher(make_base(name), region_of, [region], space, seed, name=name)
-    return None
-
-
-def make_teacher(name: str, env: gym.Env, seed: int) -> Teacher:
-    """The paper's DoorKey teachers (appendix A.1.1), built on the scripted shortest-path
-    teacher :class:`tlac.teachers.doorkey.DoorKeyOptimalTeacher`:
-
-    ``optimal``; ``good`` / ``noisy`` = optimal with probability 0.8 / 0.2, else a uniformly
-    random action; ``random``; ``L`` = optimal in the left room, random in the right;
-    ``R`` = optimal in the right room (the goal's), random in the left (the appendix's text
-    for R repeats L's, a typo).
-
-    The same set built on the shipped PPO agent, as the paper built it: ``ppo``, ``ppo-good``,
-    ``ppo-noisy``, ``ppo-L``, ``ppo-R`` (the agent acts on its partial view of the grid).
-    """
-    # Imported here: tlac.teachers.doorkey reads this module's constants.
-    from tlac.teachers.doorkey import DoorKeyOptimalTeacher
-    from tlac.teachers.ppo import PPOActorTeacher
-    from tlac.teachers.wrappers import RandomTeacher
-
-    space = env.action_space
-    if name == "random":
-        return RandomTeacher(space, seed)
-    for base, make_base in (
-        ("optimal", lambda n: DoorKeyOptimalTeacher(name=n)),
-        ("ppo", lambda n: PPOActorTeacher.load("doorkey", name=n, view="partial")),
-    ):
-        teacher = _derived_teacher(name, base, make_base, space, seed)
-        if teacher is not None:
-            return teacher
-    raise UnknownNameError("teacher for doorkey", name, TEACHER_NAMES)
-
-
-DOMAIN = Domain(
-    name="doorkey",
-    description="MiniGrid DoorKey 7x7, fully observed grid flattened to 147 values, 6 actions",
-    make_env=make_doorkey_env,
-    teacher_names=TEACHER_NAMES,
-    make_teacher=make_teacher,
-    region_names=REGION_NAMES,
-    region_of=region_of,
-    presets={
-        "tlac": "doorkey",
-        "a2c": "doorkey",
-        "ppo": "doorkey",
-        "dqn-tlql": "doorkey",
-        "ac-teach": "doorkey",
-    },
-    default_teachers=("optimal", "random", "random"),
-    max_episode_steps=MAX_STEPS,
-)
 
 
 class PartialView(gym.ObservationWrapper):
     """The agent's egocentric 7x7 view (MiniGrid's default observation), flattened to 147
-    ``uint8`` values, computed from the full grid (:func:`tlac.envs.doorkey_view.partial_view`)."""
+    ``uint8`` values, computed from the full grid (:func:`tlac.domains.doorkey.view.partial_view`)."""
 
     def __init__(self, env: gym.Env):
         super().__init__(env)
-        from tlac.envs.doorkey_view import VIEW
-
         high = np.tile(_CHANNEL_HIGH, VIEW * VIEW)
         self.observation_space = gym.spaces.Box(low=np.zeros_like(high), high=high, dtype=np.uint8)
 
     def observation(self, observation: np.ndarray) -> np.ndarray:
-        from tlac.envs.doorkey_view import partial_view
-
         return partial_view(observation[None])[0]
 
 
@@ -294,41 +214,3 @@ def make_partial_doorkey_env(render_mode: str | None = None) -> gym.Env:
     """DoorKey 7x7 observed through the agent's partial view, 6 actions."""
     base = FullyObservedDoorKey(size=GRID_SIZE, render_mode=render_mode)
     return FirstActions(PartialView(FlatFullGrid(base)), N_ACTIONS)
-
-
-PARTIAL_TEACHER_NAMES = ("ppo", "ppo-good", "ppo-noisy", "random")
-
-
-def make_partial_teacher(name: str, env: gym.Env, seed: int) -> Teacher:
-    """Teachers that can act on the partial view: the PPO agent (trained on it), its good /
-    noisy copies, and random. The scripted teacher and the room-based L / R need the full
-    grid (the room is not visible in the agent's view), so they exist on ``doorkey`` only."""
-    from tlac.teachers.ppo import PPOActorTeacher
-    from tlac.teachers.wrappers import RandomTeacher
-
-    if name == "random":
-        return RandomTeacher(env.action_space, seed)
-    if name in PARTIAL_TEACHER_NAMES:
-        base = name.split("-")[0]
-        teacher = _derived_teacher(
-            name,
-            base,
-            lambda n: PPOActorTeacher.load("doorkey", name=n, view="same"),
-            env.action_space,
-            seed,
-        )
-        assert teacher is not None
-        return teacher
-    raise UnknownNameError("teacher for doorkey-partial", name, PARTIAL_TEACHER_NAMES)
-
-
-PARTIAL_DOMAIN = Domain(
-    name="doorkey-partial",
-    description="MiniGrid DoorKey 7x7 as MiniGrid observes it: the agent's 7x7 view (147 values), 6 actions",
-    make_env=make_partial_doorkey_env,
-    teacher_names=PARTIAL_TEACHER_NAMES,
-    make_teacher=make_partial_teacher,
-    presets=dict(DOMAIN.presets),
-    default_teachers=("ppo", "random", "random"),
-    max_episode_steps=MAX_STEPS,
-)

@@ -1,13 +1,13 @@
 """``tlac teacher ...``: train a SAC teacher, measure teachers on their own.
 
-The main command wires this in with ``tlac.teachers.cli.register(subparsers)``::
+The main command wires this in with ``tlac.cli.teacher.register(subparsers)``::
 
     tlac teacher train hopper-bullet --steps 1000000 --seed 0 --out src/tlac/data/teachers
     tlac teacher eval pickplace --teachers optimal,good,noisy --episodes 1000 --seed 0 --json
 
 Each sub-command sets ``func(args) -> int`` (the exit status). Bad input raises
 :class:`tlac.errors.ConfigError` / :class:`tlac.errors.UnknownNameError`, which the main CLI
-prints as one line with exit status 2. ``python -m tlac.teachers.cli ...`` also works.
+prints as one line with exit status 2.
 """
 
 from __future__ import annotations
@@ -97,7 +97,7 @@ def _train(args: argparse.Namespace) -> int:
 
 
 def _eval(args: argparse.Namespace) -> int:
-    from tlac.envs import get_domain
+    from tlac.domains import get_domain
     from tlac.errors import UnknownNameError
     from tlac.teachers.measure import measure_teacher
 
@@ -138,15 +138,3 @@ def _eval(args: argparse.Namespace) -> int:
             )
         )
     return 0
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Stand-alone entry point: ``python -m tlac.teachers.cli train|eval ...``, the same as
-    ``tlac teacher train|eval ...`` (one parser, one error handler: :func:`tlac.cli.main`)."""
-    from tlac.cli import main as tlac_main
-
-    return tlac_main(["teacher", *(sys.argv[1:] if argv is None else argv)])
-
-
-if __name__ == "__main__":
-    sys.exit(main())

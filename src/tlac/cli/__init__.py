@@ -156,7 +156,7 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     import numpy as np
 
     from tlac.algorithms import get_algorithm
-    from tlac.envs import get_domain, make_teachers
+    from tlac.domains import get_domain, make_teachers
     from tlac.evaluation import evaluate_policy
     from tlac.run import load_run_config
 
@@ -215,7 +215,7 @@ def _cmd_eval(args: argparse.Namespace) -> int:
 
 
 def _cmd_envs(args: argparse.Namespace) -> int:
-    from tlac.envs import domain_names, get_domain
+    from tlac.domains import domain_names, get_domain
 
     for name in domain_names():
         try:
@@ -338,10 +338,10 @@ def build_parser() -> argparse.ArgumentParser:
     envs = sub.add_parser("envs", help="list the domains, their teachers and regions")
     envs.set_defaults(func=_cmd_envs)
 
-    from tlac.teachers import cli as teacher_cli
+    from tlac.cli import teacher as teacher_cli
 
     teacher_cli.register(sub)
-    from tlac.experiments import cli as experiment_cli
+    from tlac.cli import experiment as experiment_cli
 
     experiment_cli.register(sub)
     return parser

@@ -1,8 +1,10 @@
 """Named domains: an environment factory, its teachers, and its region labels.
 
-Each domain module defines a :class:`Domain` object; they are imported lazily so that the
-continuous-control domains' optional dependencies (PyBullet, MuJoCo) are only needed when
-those domains are used.
+Each domain is a package under ``tlac.domains`` (``doorkey``, ``hopper``, ``pickplace``)
+holding its environment, its teachers and its regions, and defining a :class:`Domain` object;
+the packages are imported lazily, by name, so that the continuous-control domains' optional
+dependencies (PyBullet, MuJoCo) are only needed when those domains are used. This module is
+the registry, the teacher-set builder and the vectorised-environment factory.
 
 >>> d = get_domain("doorkey")
 >>> env = d.make_env()
@@ -23,9 +25,12 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 from tlac.errors import ConfigError, UnknownNameError
+from tlac.recording import EpisodeRecorder
 from tlac.teachers.base import NamedTeacher, Teacher, unique_names
+from tlac.teachers.wrappers import MixedRandomTeacher
 
 
 @dataclass(frozen=True)
@@ -56,21 +61,21 @@ class Domain:
 
 # name -> "module:attribute" of its Domain object
 _DOMAINS: dict[str, str] = {
-    "doorkey": "tlac.envs.doorkey:DOMAIN",
-    "doorkey-partial": "tlac.envs.doorkey:PARTIAL_DOMAIN",
-    "hopper-bullet": "tlac.envs.hopper:BULLET_DOMAIN",
-    "hopper": "tlac.envs.hopper:MUJOCO_DOMAIN",
-    "pickplace": "tlac.envs.pickplace:DOMAIN",
+    "doorkey": "tlac.domains.doorkey:DOMAIN",
+    "doorkey-partial": "tlac.domains.doorkey:PARTIAL_DOMAIN",
+    "hopper-bullet": "tlac.domains.hopper:BULLET_DOMAIN",
+    "hopper": "tlac.domains.hopper:MUJOCO_DOMAIN",
+    "pickplace": "tlac.domains.pickplace:DOMAIN",
 }
 
 
 # Gymnasium ids of the built-in domains: id -> "module:factory" (imported only by gym.make)
 GYM_IDS: dict[str, str] = {
-    "tlac/DoorKey-v0": "tlac.envs.doorkey:make_doorkey_env",
-    "tlac/DoorKeyPartial-v0": "tlac.envs.doorkey:make_partial_doorkey_env",
-    "tlac/HopperBullet-v0": "tlac.envs.hopper:make_bullet_env",
-    "tlac/Hopper-v0": "tlac.envs.hopper:make_mujoco_env",
-    "tlac/PickPlace-v0": "tlac.envs.pickplace:make_env",
+    "tlac/DoorKey-v0": "tlac.domains.doorkey.env:make_doorkey_env",
+    "tlac/DoorKeyPartial-v0": "tlac.domains.doorkey.env:make_partial_doorkey_env",
+    "tlac/HopperBullet-v0": "tlac.domains.hopper.env:make_bullet_env",
+    "tlac/Hopper-v0": "tlac.domains.hopper.env:make_mujoco_env",
+    "tlac/PickPlace-v0": "tlac.domains.pickplace.env:make_env",
 }
 
 # domains added with register_domain, by name; and those named "module:attribute", by that
@@ -106,7 +111,9 @@ def register_domain(domain: Domain, replace: bool = False) -> Domain:
     ('default', True)
     """
     if not isinstance(domain, Domain):
-        raise ConfigError(f"register_domain takes a tlac.envs.Domain, got {type(domain).__name__}")
+        raise ConfigError(
+            f"register_domain takes a tlac.domains.Domain, got {type(domain).__name__}"
+        )
     if not isinstance(domain.name, str) or not re.fullmatch(
         r"[A-Za-z0-9][A-Za-z0-9._-]*", domain.name
     ):
@@ -160,7 +167,7 @@ def _import_domain(spec: str) -> Domain:
     domain = getattr(module, attr, None)
     if not isinstance(domain, Domain):
         raise ConfigError(
-            f"environment {spec!r}: {module_name}.{attr} is not a tlac.envs.Domain "
+            f"environment {spec!r}: {module_name}.{attr} is not a tlac.domains.Domain "
             f"(got {type(domain).__name__})"
         )
     _IMPORTED[spec] = register_domain(domain, replace=True)
@@ -214,8 +221,6 @@ def parse_teacher_spec(domain: Domain, spec: str) -> tuple[str, float | None]:
 def make_teachers(domain: Domain, names: list[str], env: gym.Env, seed: int) -> list[Teacher]:
     """Build the named teachers of ``domain`` (``NAME`` or ``NAME:P``, see
     :func:`parse_teacher_spec`); duplicates get distinct seeds and names."""
-    from tlac.teachers.wrappers import MixedRandomTeacher
-
     parsed = [parse_teacher_spec(domain, n) for n in names]
     labels = unique_names(list(names))
     teachers: list[Teacher] = []
@@ -228,3 +233,21 @@ def make_teachers(domain: Domain, names: list[str], env: gym.Env, seed: int) -> 
             )
         teachers.append(NamedTeacher(teacher, label))
     return teachers
+
+
+def make_vec_env(
+    domain: Domain,
+    n_envs: int,
+    seed: int,
+    episodes_csv: Path | None,
+    subprocesses: bool = False,
+) -> EpisodeRecorder:
+    """``n_envs`` copies of the domain's env in a DummyVecEnv (or, with ``subprocesses``, a
+    SubprocVecEnv: one process each), seeded ``seed + i``, recording finished episodes to
+    ``episodes_csv``."""
+    if not isinstance(n_envs, int) or n_envs <= 0:
+        raise ConfigError(f"n_envs must be a positive integer, got {n_envs!r}")
+    factories = [domain.make_env for _ in range(n_envs)]
+    venv = SubprocVecEnv(factories) if subprocesses else DummyVecEnv(factories)
+    venv.seed(seed)
+    return EpisodeRecorder(venv, episodes_csv)

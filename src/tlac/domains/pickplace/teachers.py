@@ -1,9 +1,9 @@
 """Scripted Pick & Place teachers (paper, appendix A.3.1; AC-Teach's hand-coded teachers).
 
-All teachers read only the 25-dim Fetch observation (:mod:`tlac.envs.pickplace`):
+All teachers read only the 25-dim Fetch observation (:mod:`tlac.domains.pickplace.env`):
 ``grip = obs[0:3]``, ``box = obs[3:6]``, ``rel = obs[6:9] = box - grip``, finger joints
 ``obs[9:11]`` (0 = closed, 0.05 = fully open; about 0.025 each around the 5 cm box). The goal
-is the constant :data:`tlac.envs.pickplace.GOAL`. Actions are ``[dx, dy, dz, gripper]`` in
+is the constant :data:`tlac.domains.pickplace.env.GOAL`. Actions are ``[dx, dy, dz, gripper]`` in
 [-1, 1]; Fetch moves the gripper target by 0.05 m per unit of ``dx, dy, dz``.
 
 * :func:`pick_actions`: open the gripper, move laterally above the box, descend, close when
@@ -40,8 +40,22 @@ from collections.abc import Callable
 import gymnasium as gym
 import numpy as np
 
+from tlac.domains.pickplace.env import GOAL, OBJECT_START_XY, is_holding, region_of
 from tlac.errors import UnknownNameError
 from tlac.teachers.base import Teacher
+from tlac.teachers.wrappers import GaussianNoiseTeacher, PartialTeacher, RandomTeacher
+
+TEACHER_NAMES: tuple[str, ...] = (
+    "optimal",
+    "good",
+    "noisy",
+    "pick",
+    "place",
+    "random",
+    "pick-region",
+    "place-region",
+)
+"""Appendix A.3.1's teachers, and the region-based pick / place of our first reading."""
 
 GAIN = 10.0
 """Proportional gain from position error (m) to action; 1/0.05 = 20 would cover the error in
@@ -52,10 +66,6 @@ LATERAL_TOL = 0.01
 """Descend onto the box only once it is this close in x and y."""
 APPROACH_HEIGHT = 0.05
 """Height above the box kept while moving laterally toward it."""
-HOLD_DIST = 0.03
-"""Holding: grip point within this distance of the box centre ..."""
-HOLD_WIDTH = (0.03, 0.06)
-"""... and finger opening (sum of both finger joints) in this range (closed on the box)."""
 CARRY_HEIGHT = 0.05
 """Carry the box this far above the goal while it is far from the goal in x and y."""
 PLACE_LATERAL_TOL = 0.01
@@ -66,22 +76,8 @@ DONE_DIST = 0.02
 """Box released within this distance of the goal: stay still."""
 
 
-def _goal() -> np.ndarray:
-    from tlac.envs.pickplace import GOAL
-
-    return GOAL
-
-
 def _xyz(error: np.ndarray) -> np.ndarray:
     return np.clip(GAIN * error, -1.0, 1.0)
-
-
-def is_holding(obs: np.ndarray) -> np.ndarray:
-    """Boolean per row: the gripper holds the box (region ``holding`` of the domain)."""
-    obs = np.asarray(obs, dtype=np.float64)
-    dist = np.linalg.norm(obs[:, 6:9], axis=1)
-    width = obs[:, 9] + obs[:, 10]
-    return (dist < HOLD_DIST) & (width > HOLD_WIDTH[0]) & (width < HOLD_WIDTH[1])
 
 
 def pick_actions(obs: np.ndarray) -> np.ndarray:
@@ -105,7 +101,7 @@ def place_actions(obs: np.ndarray) -> np.ndarray:
     """The place sub-policy for a batch of observations (see the module docstring)."""
     obs = np.asarray(obs, dtype=np.float64)
     box = obs[:, 3:6]
-    err = _goal()[None, :] - box
+    err = GOAL[None, :] - box
     lateral = np.linalg.norm(err[:, :2], axis=1)
     target = err.copy()
     far = lateral > PLACE_LATERAL_TOL
@@ -120,13 +116,11 @@ def place_actions(obs: np.ndarray) -> np.ndarray:
 def ac_teach_pick_actions(obs: np.ndarray) -> np.ndarray:
     """AC-Teach's pick teacher: :func:`pick_actions` until it holds the box, then it carries
     the box, gripper closed, back to where boxes start (``OBJECT_START_XY`` on the table)."""
-    from tlac.envs.pickplace import OBJECT_START_XY
-
     obs = np.asarray(obs, dtype=np.float64)
     actions = pick_actions(obs)
     holding = is_holding(obs)
     if holding.any():
-        start = np.array([*OBJECT_START_XY, _goal()[2]])  # the goal lies on the table too
+        start = np.array([*OBJECT_START_XY, GOAL[2]])  # the goal lies on the table too
         err = start[None, :] - obs[holding, 3:6]
         actions[holding, :3] = _xyz(err)
         actions[holding, 3] = -1.0
@@ -141,7 +135,7 @@ def ac_teach_place_actions(obs: np.ndarray) -> np.ndarray:
     actions = place_actions(obs)
     free = ~is_holding(obs)
     if free.any():
-        err = _goal()[None, :] - obs[free, 0:3]
+        err = GOAL[None, :] - obs[free, 0:3]
         far = np.linalg.norm(err[:, :2], axis=1) > PLACE_LATERAL_TOL
         err[far, 2] += CARRY_HEIGHT
         actions[free, :3] = _xyz(err)
@@ -156,7 +150,7 @@ def optimal_actions(obs: np.ndarray) -> np.ndarray:
     actions = pick_actions(obs)
     if holding.any():
         actions[holding] = place_actions(obs[holding])
-    done = ~holding & (np.linalg.norm(_goal()[None, :] - obs[:, 3:6], axis=1) < DONE_DIST)
+    done = ~holding & (np.linalg.norm(GOAL[None, :] - obs[:, 3:6], axis=1) < DONE_DIST)
     actions[done] = np.array([0.0, 0.0, 0.0, 1.0], dtype=np.float32)
     return actions
 
@@ -174,9 +168,6 @@ class ScriptedTeacher:
 def make_pickplace_teacher(name: str, action_space: gym.Space, seed: int) -> Teacher:
     """Appendix A.3.1's teachers by name: optimal, good, noisy, pick, place, random, and the
     region-based pick-region / place-region."""
-    from tlac.envs.pickplace import TEACHER_NAMES, region_of
-    from tlac.teachers.wrappers import GaussianNoiseTeacher, PartialTeacher, RandomTeacher
-
     optimal = ScriptedTeacher(optimal_actions, "optimal")
     if name == "optimal":
         return optimal
@@ -194,3 +185,8 @@ def make_pickplace_teacher(name: str, action_space: gym.Space, seed: int) -> Tea
     if name == "random":
         return RandomTeacher(action_space, seed, name="random")
     raise UnknownNameError("teacher for pickplace", name, TEACHER_NAMES)
+
+
+def make_teacher(name: str, env: gym.Env, seed: int) -> Teacher:
+    """The domain's ``make_teacher``: :func:`make_pickplace_teacher` on ``env``'s action space."""
+    return make_pickplace_teacher(name, env.action_space, seed)

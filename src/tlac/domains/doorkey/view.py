@@ -16,7 +16,7 @@ are walls), ``rotate_left`` ``direction + 1`` times, ``Grid.process_vis`` and ``
 The carried object is not in the full grid; in DoorKey the only object the agent can carry
 is the key, which is carried exactly when no key cell is on the grid.
 
->>> from tlac.envs.doorkey import make_doorkey_env
+>>> from tlac.domains.doorkey.env import make_doorkey_env
 >>> obs, _ = make_doorkey_env().reset(seed=0)
 >>> partial_view(obs[None]).shape
 (1, 147)

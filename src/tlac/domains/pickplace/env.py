@@ -26,9 +26,6 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from tlac.envs import Domain
-from tlac.teachers.base import Teacher
-
 GOAL = np.array([1.45, 0.55, 0.425])
 """The fixed target position of the box (on the table)."""
 OBJECT_START_XY = np.array([1.25, 0.55])
@@ -36,16 +33,6 @@ OBJECT_RANGE = 0.05
 GRIPPER_JITTER = np.array([0.05, 0.05, 0.025])
 MAX_EPISODE_STEPS = 100
 
-TEACHER_NAMES: tuple[str, ...] = (
-    "optimal",
-    "good",
-    "noisy",
-    "pick",
-    "place",
-    "random",
-    "pick-region",
-    "place-region",
-)
 """Appendix A.3.1's teacher set."""
 REGION_NAMES: tuple[str, ...] = ("not_holding", "holding")
 
@@ -110,29 +97,20 @@ def make_env(max_episode_steps: int = MAX_EPISODE_STEPS) -> gym.Env:
     return gym.wrappers.TimeLimit(env, max_episode_steps=max_episode_steps)
 
 
+HOLD_DIST = 0.03
+"""Holding: grip point within this distance of the box centre ..."""
+HOLD_WIDTH = (0.03, 0.06)
+"""... and finger opening (sum of both finger joints) in this range (closed on the box)."""
+
+
+def is_holding(obs: np.ndarray) -> np.ndarray:
+    """Boolean per row: the gripper holds the box (region ``holding`` of the domain)."""
+    obs = np.asarray(obs, dtype=np.float64)
+    dist = np.linalg.norm(obs[:, 6:9], axis=1)
+    width = obs[:, 9] + obs[:, 10]
+    return (dist < HOLD_DIST) & (width > HOLD_WIDTH[0]) & (width < HOLD_WIDTH[1])
+
+
 def region_of(obs: np.ndarray) -> np.ndarray:
-    """0 = ``not_holding``, 1 = ``holding`` the box (see :func:`tlac.teachers.pickplace.is_holding`)."""
-    from tlac.teachers.pickplace import is_holding
-
+    """0 = ``not_holding``, 1 = ``holding`` the box (:func:`is_holding`)."""
     return is_holding(np.asarray(obs).reshape(len(obs), -1)).astype(np.int64)
-
-
-def make_teacher(name: str, env: gym.Env, seed: int) -> Teacher:
-    """Appendix A.3.1's teachers (see :func:`tlac.teachers.pickplace.make_pickplace_teacher`)."""
-    from tlac.teachers.pickplace import make_pickplace_teacher
-
-    return make_pickplace_teacher(name, env.action_space, seed)
-
-
-DOMAIN = Domain(
-    name="pickplace",
-    description="Fetch Pick & Place (AC-Teach's): fixed goal, dense reward, 25-dim obs, 4-dim action",
-    make_env=make_env,
-    teacher_names=TEACHER_NAMES,
-    make_teacher=make_teacher,
-    region_names=REGION_NAMES,
-    region_of=region_of,
-    presets={"tlac": "pickplace", "a2c": "pickplace", "ppo": "pickplace", "ac-teach": "pickplace"},
-    default_teachers=("optimal", "random", "random"),
-    max_episode_steps=MAX_EPISODE_STEPS,
-)

@@ -1,14 +1,13 @@
 """``tlac experiment ...`` and ``tlac report ...``: the command-line side of the experiments.
 
 The main ``tlac`` command calls :func:`register` to add these sub-commands; each parser sets
-``func=handler(args) -> int`` (exit status). ``python -m tlac.experiments.cli`` runs them
+``func=handler(args) -> int`` (exit status). ``python -m tlac experiment ...`` runs them
 standalone. Errors are :class:`~tlac.errors.TlacError`; the main CLI prints them as one line.
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -118,15 +117,3 @@ def register(subparsers: Any) -> None:
         help="show the paper's jumpstarts (Tables 1-3) beside ours where they exist",
     )
     rep.set_defaults(func=_report)
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Standalone entry point: ``python -m tlac.experiments.cli experiment run ...``, the same
-    as ``tlac experiment run ...`` (one parser, one error handler: :func:`tlac.cli.main`)."""
-    from tlac.cli import main as tlac_main
-
-    return tlac_main(argv)
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -12,7 +12,7 @@ door always); a ``forward`` onto the goal ends a plan. Its advice is the first a
 shortest plan, so it picks up the key, opens the door and walks to the goal in the fewest
 steps, whatever happened before (a dropped key, a door closed again): the advice is derived
 afresh from each observation. Everything is read from the observation of
-:mod:`tlac.envs.doorkey`: carrying the key shows as the key missing from the grid, and an
+:mod:`tlac.domains.doorkey.env`: carrying the key shows as the key missing from the grid, and an
 agent standing in the wall column stands in the open doorway. ``drop`` is never advised.
 
 How it is computed: the exact distance to the goal of every state is tabulated once per
@@ -28,7 +28,7 @@ expanding the actions in that order finds (the lexicographically first shortest 
 which is what this teacher computed before the tables (the tests compare the two). Advice
 is also memoised by the observation's bytes.
 
->>> from tlac.envs.doorkey import make_doorkey_env
+>>> from tlac.domains.doorkey.env import make_doorkey_env
 >>> env, teacher = make_doorkey_env(), DoorKeyOptimalTeacher()
 >>> obs, _ = env.reset(seed=1)
 >>> done = False
@@ -45,7 +45,7 @@ import math
 
 import numpy as np
 
-from tlac.envs.doorkey import (
+from tlac.domains.doorkey.env import (
     AGENT,
     DOOR,
     DOOR_LOCKED,
@@ -234,7 +234,7 @@ _SHARED_TABLES = _DistanceTables()
 def _observation_bytes(obs_batch: np.ndarray) -> list[bytes]:
     """Flattened observations ``(n, 3 * s * s)`` (or one, ``(3 * s * s,)``) -> one
     ``bytes`` per observation: its grid ``[x, y, channel]`` as ``uint8`` in C order, the
-    values of :func:`~tlac.envs.doorkey.obs_to_grid` (a few microseconds cheaper than
+    values of :func:`~tlac.domains.doorkey.env.obs_to_grid` (a few microseconds cheaper than
     calling it, which matters for one observation per call)."""
     obs = np.asarray(obs_batch)
     if obs.ndim == 1:

@@ -1,4 +1,4 @@
-"""Hopper domains (paper, section 4 and appendix A.2).
+"""Hopper environments (paper, section 4 and appendix A.2).
 
 * ``hopper-bullet``: the paper's environment, PyBullet's Hopper (``HopperBulletEnv-v0`` from
   ``pybullet-envs-gymnasium``, the Gymnasium port of the "HopperPyBulletEnv-v0" of PyBullet
@@ -20,16 +20,6 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-
-from tlac.envs import Domain
-from tlac.errors import UnknownNameError
-from tlac.teachers.base import Teacher
-
-TEACHER_NAMES: tuple[str, ...] = ("optimal", "good", "noisy", "random")
-"""Appendix A.2.1's teacher set."""
-
-P_TEACHER: dict[str, float] = {"good": 0.8, "noisy": 0.2}
-"""Probability of following the optimal (SAC) policy; a uniform random action otherwise."""
 
 
 class Float32Observation(gym.ObservationWrapper, gym.utils.RecordConstructorArgs):
@@ -95,50 +85,3 @@ def make_mujoco_env() -> gym.Env:
 def region_of(obs: np.ndarray) -> np.ndarray:
     """Hopper has one region, ``all`` (no partial teachers, paper footnote 7)."""
     return np.zeros(len(obs), dtype=np.int64)
-
-
-def _teacher_factory(env_name: str):
-    def make_teacher(name: str, env: gym.Env, seed: int) -> Teacher:
-        from tlac.teachers.sac import SACActorTeacher
-        from tlac.teachers.wrappers import MixedRandomTeacher, RandomTeacher
-
-        space = env.action_space
-        if name == "random":
-            return RandomTeacher(space, seed, name="random")
-        if name == "optimal":
-            return SACActorTeacher.load(env_name, name="optimal")
-        if name in P_TEACHER:
-            base = SACActorTeacher.load(env_name, name="optimal")
-            return MixedRandomTeacher(base, P_TEACHER[name], space, seed, name=name)
-        raise UnknownNameError(f"teacher for {env_name}", name, TEACHER_NAMES)
-
-    return make_teacher
-
-
-_PRESETS = {"tlac": "hopper", "a2c": "hopper", "ppo": "hopper", "ac-teach": "hopper"}
-
-BULLET_DOMAIN = Domain(
-    name="hopper-bullet",
-    description="PyBullet Hopper (HopperBulletEnv-v0, the paper's), 15-dim obs, 3-dim action",
-    make_env=make_bullet_env,
-    teacher_names=TEACHER_NAMES,
-    make_teacher=_teacher_factory("hopper-bullet"),
-    region_names=("all",),
-    region_of=region_of,
-    presets=dict(_PRESETS),
-    default_teachers=("optimal", "random", "random"),
-    max_episode_steps=1000,
-)
-
-MUJOCO_DOMAIN = Domain(
-    name="hopper",
-    description="MuJoCo Hopper (Gymnasium Hopper-v5), 11-dim obs, 3-dim action",
-    make_env=make_mujoco_env,
-    teacher_names=TEACHER_NAMES,
-    make_teacher=_teacher_factory("hopper"),
-    region_names=("all",),
-    region_of=region_of,
-    presets=dict(_PRESETS),
-    default_teachers=("optimal", "random", "random"),
-    max_episode_steps=1000,
-)

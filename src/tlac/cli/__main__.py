@@ -1,0 +1,7 @@
+"""``python -m tlac.cli ...``: the ``tlac`` command."""
+
+import sys
+
+from tlac.cli import main
+
+sys.exit(main())
