@@ -170,3 +170,22 @@ def test_numpy_and_torch_log_probs_agree():
     np.testing.assert_allclose(
         np_log_softmax(logits), torch.log_softmax(torch.tensor(logits), -1).numpy(), rtol=1e-10
     )
+
+
+def test_clipped_losses_stay_finite_when_a_teacher_action_was_improbable() -> None:
+    """A teacher's action with old log-probability -1e4 under pi_low, now -10: the raw ratio
+    exp(9990) is inf; the capped one keeps loss, KL and gradient finite."""
+    from tlac.algorithms.losses import MAX_LOG_RATIO, clipped_policy_losses
+
+    log_prob = torch.tensor([[-10.0, -1.0]], requires_grad=True)
+    old = torch.tensor([[-1e4, -1.0]])
+    loss, kl = clipped_policy_losses(log_prob, old, torch.tensor([-1.0, 1.0]), 0.2)
+    loss.sum().backward()
+    assert torch.isfinite(loss).all() and torch.isfinite(kl).all()
+    assert torch.isfinite(log_prob.grad).all()
+    assert float(kl[0]) > 1e6  # a KL stop still sees the row as moved far
+    # below the cap nothing changes: ratio 1.5 is clipped exactly as before
+    loss2, _ = clipped_policy_losses(
+        torch.log(torch.tensor([[1.5]])), torch.zeros(1, 1), torch.tensor([1.0]), 0.2
+    )
+    assert abs(float(loss2[0]) + 1.2) < 1e-6 and MAX_LOG_RATIO == 20.0

@@ -16,12 +16,20 @@ import math
 
 import torch
 
+MAX_LOG_RATIO = 20.0
+"""Log-ratios are capped here before ``exp``. TL-AC's low level also trains on teachers'
+actions (Eq. 3), whose old probability under pi_low can be ~exp(-1e4) (a Gaussian far from
+a teacher's action): after one step the ratio overflows to inf and the loss to inf or NaN
+(measured: hopper-bullet, paper variant with the agent-rows KL rule, 2 good + 1 noisy, NaN
+gradients at 6e4 and 8e4 steps). A ratio above e^20 is far outside any clip range, so only
+such rows change, and their gradient stops there instead of overflowing."""
+
 
 def clipped_policy_loss(
     log_prob: torch.Tensor, old_log_prob: torch.Tensor, advantages: torch.Tensor, clip_range: float
 ) -> torch.Tensor:
     """``-mean(min(r A, clip(r, 1-eps, 1+eps) A))`` with ``r = exp(log_prob - old_log_prob)``."""
-    ratio = torch.exp(log_prob - old_log_prob)
+    ratio = torch.exp(torch.clamp(log_prob - old_log_prob, max=MAX_LOG_RATIO))
     unclipped = ratio * advantages
     clipped = torch.clamp(ratio, 1.0 - clip_range, 1.0 + clip_range) * advantages
     return -torch.min(unclipped, clipped).mean()
@@ -48,7 +56,7 @@ def clipped_policy_losses(
     >>> [round(v, 6) for v in loss.tolist()]  # row 0: -(1.2 - 1) / 2 ; row 1: -(1 - 0.8) / 2
     [-0.1, -0.1]
     """
-    log_ratio = log_prob - old_log_prob
+    log_ratio = torch.clamp(log_prob - old_log_prob, max=MAX_LOG_RATIO)
     ratio = torch.exp(log_ratio)
     surrogate = torch.min(
         ratio * advantages, torch.clamp(ratio, 1.0 - clip_range, 1.0 + clip_range) * advantages
@@ -71,7 +79,8 @@ def clip_fractions(
     >>> clip_fractions(lp, torch.zeros(2, 2), 0.2).tolist()
     [0.5, 0.5]
     """
-    outside = (torch.abs(torch.exp(log_prob - old_log_prob) - 1.0) > clip_range).float()
+    ratio = torch.exp(torch.clamp(log_prob - old_log_prob, max=MAX_LOG_RATIO))
+    outside = (torch.abs(ratio - 1.0) > clip_range).float()
     return _weighted_mean(outside.detach(), weights)
 
 
