@@ -65,7 +65,7 @@ def base_config(**changes: object) -> dict:
             [
                 "field 'domain'",
                 "unknown domain 'doorlock'",
-                "doorkey, hopper-bullet, hopper, pickplace",
+                "doorkey, doorkey-partial, hopper-bullet, hopper, pickplace",
             ],
         ),
         (
