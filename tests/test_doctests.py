@@ -14,7 +14,7 @@ import tlac
 MODULES = sorted(
     m.name
     for m in pkgutil.walk_packages(tlac.__path__, prefix="tlac.")
-    if m.name != "tlac.__main__"
+    if not m.name.endswith(".__main__")
 )
 
 

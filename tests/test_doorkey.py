@@ -14,9 +14,9 @@ from gymnasium.utils.env_checker import check_env
 import tlac.domains.doorkey.env
 import tlac.domains.doorkey.planner
 from tlac.domains import get_domain, make_teachers
+from tlac.domains.doorkey import DOMAIN
 from tlac.domains.doorkey.env import (
     AGENT,
-    DOMAIN,
     DOOR,
     DOOR_LOCKED,
     DOOR_OPEN,

@@ -63,14 +63,14 @@ def test_exported_ppo_actor_equals_sb3_greedy_predict(tmp_path) -> None:
     actor.load_state_dict(ppo_actor_state_dict(model.policy))
     probe = np.stack([env.observation_space.sample() for _ in range(64)])
     np.testing.assert_array_equal(
-        PPOActorTeacher(actor, view="same").predict(probe),
+        PPOActorTeacher(actor).predict(probe),
         model.predict(probe, deterministic=True)[0],
     )
     # shipped as .pt + .json, loaded back, it advises a full-grid student through its view
     torch.save(actor.state_dict(), tmp_path / "doorkey-ppo.pt")
     meta = {"obs_dim": 147, "n_actions": 6, "net_arch": [16, 16]}
     (tmp_path / "doorkey-ppo.json").write_text(json.dumps(meta))
-    teacher = PPOActorTeacher.load("doorkey", view="partial", data_dir=tmp_path)
+    teacher = PPOActorTeacher.load("doorkey", transform=partial_view, data_dir=tmp_path)
     full, _ = make_doorkey_env().reset(seed=3)
     view = partial_view(full[None])
     np.testing.assert_array_equal(

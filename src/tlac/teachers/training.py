@@ -113,6 +113,42 @@ def _atomic_write_text(path: Path, text: str) -> None:
     os.replace(tmp, path)
 
 
+def _learn_with_checkpoints(
+    model: Any,
+    steps: int,
+    save_checkpoint: Any,
+    n_envs: int,
+    start: float,
+    time_limit_s: float | None,
+    progress_bar: bool,
+    **learn_kwargs: Any,
+) -> None:
+    """Train an SB3 ``model`` up to ``steps`` in all, calling ``save_checkpoint()`` every
+    :data:`CHECKPOINT_EVERY` steps and at the end; stop early once ``time_limit_s`` seconds
+    have passed since ``start``."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class _Checkpoint(BaseCallback):
+        def _on_step(self) -> bool:
+            if self.model.num_timesteps % CHECKPOINT_EVERY < n_envs:
+                save_checkpoint()
+            if time_limit_s is not None and time.time() - start > time_limit_s:
+                print(f"time limit reached at {self.model.num_timesteps} steps", flush=True)
+                return False
+            return True
+
+    remaining = steps - int(model.num_timesteps)
+    if remaining > 0:
+        model.learn(
+            remaining,
+            callback=_Checkpoint(),
+            reset_num_timesteps=False,
+            progress_bar=progress_bar,
+            **learn_kwargs,
+        )
+        save_checkpoint()
+
+
 def evaluate_actor(
     env_name: str, teacher: Any, episodes: int, seed: int
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -181,7 +217,6 @@ def train_teacher(
         )
     import torch
     from stable_baselines3 import SAC
-    from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.monitor import Monitor
 
     from tlac.domains import get_domain
@@ -225,25 +260,9 @@ def train_teacher(
         state["num_timesteps"] = int(model.num_timesteps)
         _atomic_write_text(state_path, json.dumps(state))
 
-    class _Checkpoint(BaseCallback):
-        def _on_step(self) -> bool:
-            if self.model.num_timesteps % CHECKPOINT_EVERY == 0:
-                save_checkpoint()
-            if time_limit_s is not None and time.time() - start > time_limit_s:
-                print(f"time limit reached at {self.model.num_timesteps} steps", flush=True)
-                return False
-            return True
-
-    remaining = steps - int(model.num_timesteps)
-    if remaining > 0:
-        model.learn(
-            remaining,
-            callback=_Checkpoint(),
-            log_interval=20,
-            reset_num_timesteps=False,
-            progress_bar=progress_bar,
-        )
-        save_checkpoint()
+    _learn_with_checkpoints(
+        model, steps, save_checkpoint, 1, start, time_limit_s, progress_bar, log_interval=20
+    )
     reached = int(model.num_timesteps)
     train_wall = float(state["wall_s"]) if "wall_s" in state else 0.0
 
@@ -328,7 +347,6 @@ def train_ppo_teacher(
     observation to its view), and the sampled policy beside it."""
     import torch
     from stable_baselines3 import PPO
-    from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.env_util import make_vec_env as sb3_make_vec_env
 
     from tlac.domains import get_domain
@@ -371,24 +389,9 @@ def train_ppo_teacher(
         state["num_timesteps"] = int(model.num_timesteps)
         _atomic_write_text(state_path, json.dumps(state))
 
-    class _Checkpoint(BaseCallback):
-        def _on_step(self) -> bool:
-            if self.model.num_timesteps % CHECKPOINT_EVERY < n_envs:
-                save_checkpoint()
-            if time_limit_s is not None and time.time() - start > time_limit_s:
-                print(f"time limit reached at {self.model.num_timesteps} steps", flush=True)
-                return False
-            return True
-
-    remaining = steps - int(model.num_timesteps)
-    if remaining > 0:
-        model.learn(
-            remaining,
-            callback=_Checkpoint(),
-            reset_num_timesteps=False,
-            progress_bar=progress_bar,
-        )
-        save_checkpoint()
+    _learn_with_checkpoints(
+        model, steps, save_checkpoint, n_envs, start, time_limit_s, progress_bar
+    )
     reached = int(model.num_timesteps)
     monitor_returns = _monitor_returns(work / "monitor")
 
