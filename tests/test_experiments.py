@@ -508,3 +508,24 @@ def test_report_numbers_against_hand_computed_values(tmp_path: Path) -> None:
     ):
         assert (out / "figures" / name).read_bytes()[:4] == b"\x89PNG"
     assert "teacher usage" in text.lower()
+
+
+def test_only_runs_the_matching_runs_and_refuses_a_pattern_matching_none(tmp_path: Path) -> None:
+    from tlac.experiments.runner import grid_status, select_runs
+
+    config = load_config(TINY)
+    runs = expand_grid(config)
+    chosen = select_runs(runs, "*__ppo__seed0, *1optimal-1random__tlac__seed1")
+    assert sorted(r.name for r in chosen) == [
+        "doorkey__1optimal-1random__tlac__seed1",
+        "doorkey__none__ppo__seed0",
+    ]
+    assert select_runs(runs, None) == runs
+    with pytest.raises(ConfigError, match="matches none of the grid's runs"):
+        select_runs(runs, "hopper*")
+    out = tmp_path / "grid"
+    summary = run_local(config, out, workers=1, live=False, only="*__ppo__seed0")
+    assert summary.ok and summary.total == 1
+    status = dict((r.name, s) for r, s in grid_status(config, out))
+    assert status["doorkey__none__ppo__seed0"] == "finished"
+    assert sum(s == "finished" for s in status.values()) == 1  # the others were not run

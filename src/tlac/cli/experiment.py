@@ -21,11 +21,13 @@ def _experiment_run(args: argparse.Namespace) -> int:
 
     config = load_config(args.config)
     if args.backend == "ray":
-        summary = run_ray(config, args.out, address=args.address, workers=args.workers)
+        summary = run_ray(
+            config, args.out, address=args.address, workers=args.workers, only=args.only
+        )
     else:
         if args.address is not None:
             raise TlacError("--address needs --backend ray")
-        summary = run_local(config, args.out, workers=args.workers or 1)
+        summary = run_local(config, args.out, workers=args.workers or 1, only=args.only)
     for line in summary.lines():
         print(line)
     if summary.interrupted:
@@ -36,13 +38,12 @@ def _experiment_run(args: argparse.Namespace) -> int:
 
 def _experiment_list(args: argparse.Namespace) -> int:
     from tlac.experiments.config import load_config
-    from tlac.experiments.runner import grid_status
+    from tlac.experiments.grid import expand_grid
+    from tlac.experiments.runner import grid_status, select_runs
 
     config = load_config(args.config)
-    rows = grid_status(config, args.out) if args.out else None
-    from tlac.experiments.grid import expand_grid
-
-    runs = expand_grid(config)
+    rows = grid_status(config, args.out, args.only) if args.out else None
+    runs = select_runs(expand_grid(config), args.only)
     print(
         f"{config.name}: {config.domain}, {len(config.teacher_sets)} teacher sets x "
         f"{len(config.algorithms)} algorithms, {len(runs)} runs of {config.steps:,} steps"
@@ -62,6 +63,12 @@ def _report(args: argparse.Namespace) -> int:
     path = write_report(args.dir, paper=args.paper)
     print(f"wrote {path} and figures in {Path(path).parent / 'figures'}")
     return 0
+
+
+ONLY_HELP = (
+    "only the runs whose name matches one of these comma-separated shell patterns, e.g. "
+    "'*__tlac__*' or '*3noisy*,*teacher-l*' (the others are left for another time or machine)"
+)
 
 
 def register(subparsers: Any) -> None:
@@ -97,11 +104,13 @@ def register(subparsers: Any) -> None:
         metavar="ADDR",
         help="Ray cluster to join (auto, or HEAD:6379); default: start a local one",
     )
+    run.add_argument("--only", default=None, metavar="PATTERNS", help=ONLY_HELP)
     run.set_defaults(func=_experiment_run)
 
     lst = exp_sub.add_parser("list", help="print the runs of an experiment file (and their status)")
     lst.add_argument("config")
     lst.add_argument("--out", default=None, metavar="DIR", help="show each run's status in DIR")
+    lst.add_argument("--only", default=None, metavar="PATTERNS", help=ONLY_HELP)
     lst.set_defaults(func=_experiment_list)
 
     rep = subparsers.add_parser(

@@ -21,6 +21,7 @@ writes into ``DIR`` (so ``DIR`` need not be on a shared filesystem; see ``docs/e
 from __future__ import annotations
 
 import contextlib
+import fnmatch
 import io
 import json
 import os
@@ -133,11 +134,14 @@ def prepare_out_dir(config: ExperimentConfig, out_dir: str | Path) -> Path:
 
 
 @contextlib.contextmanager
-def _grid_session(config: Any, out: Path) -> Iterator[tuple[list[GridRun], GridSummary]]:
+def _grid_session(
+    config: Any, out: Path, only: str | None = None
+) -> Iterator[tuple[list[GridRun], GridSummary]]:
     """What every backend does first, holding the folder's lock throughout: create DIR,
     check or write its experiment file, measure the teachers once, and plan the unfinished
-    runs. Yields (runs to do, a summary counting the finished ones as skipped). Every run's
-    settings are checked before anything is written."""
+    runs (those matching ``only``, see :func:`select_runs`). Yields (runs to do, a summary
+    counting the finished ones as skipped). Every run's settings are checked before anything
+    is written."""
     check_grid_settings(config)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} is a file; expected a folder for the grid")
@@ -154,7 +158,7 @@ def _grid_session(config: Any, out: Path) -> Iterator[tuple[list[GridRun], GridS
     with dir_lock(out):
         prepare_out_dir(config, out)
         evaluate_teachers(config, out)
-        todo, skipped = _plan(config, out)
+        todo, skipped = _plan(config, out, only)
         yield todo, GridSummary(total=len(todo) + skipped, skipped=skipped)
 
 
@@ -450,8 +454,26 @@ class Display:
 # --------------------------------------------------------------------------- runners
 
 
-def _plan(config: ExperimentConfig, out: Path) -> tuple[list[GridRun], int]:
-    runs = expand_grid(config)
+def select_runs(runs: list[GridRun], only: str | None) -> list[GridRun]:
+    """The runs whose name matches one of the comma-separated shell patterns ``only`` (all
+    runs when ``None``), e.g. ``*__tlac__*`` or ``*3noisy*,*teacher-l*``; a pattern list that
+    matches nothing is a ConfigError naming a few run names."""
+    if only is None:
+        return runs
+    patterns = [p.strip() for p in only.split(",") if p.strip()]
+    chosen = [r for r in runs if any(fnmatch.fnmatchcase(r.name, p) for p in patterns)]
+    if not chosen:
+        examples = ", ".join(r.name for r in runs[:3])
+        raise ConfigError(
+            f"--only {only!r} matches none of the grid's runs (they are named like {examples})"
+        )
+    return chosen
+
+
+def _plan(
+    config: ExperimentConfig, out: Path, only: str | None = None
+) -> tuple[list[GridRun], int]:
+    runs = select_runs(expand_grid(config), only)
     todo = [r for r in runs if run_status(run_dir(out, r)) != "finished"]
     return todo, len(runs) - len(todo)
 
@@ -468,12 +490,14 @@ def run_local(
     workers: int = 1,
     live: bool | None = None,
     on_event: Callable[[str, str], None] | None = None,
+    only: str | None = None,
 ) -> GridSummary:
-    """Run every unfinished run of ``config`` in ``workers`` parallel processes on this machine."""
+    """Run every unfinished run of ``config`` (matching ``only``, see :func:`select_runs`) in
+    ``workers`` parallel processes on this machine."""
     if workers < 1:
         raise ConfigError(f"--workers must be >= 1, got {workers}")
     out = Path(out_dir)
-    with _grid_session(config, out) as (todo, summary):
+    with _grid_session(config, out, only) as (todo, summary):
         if not todo:
             return summary
         import multiprocessing
@@ -557,8 +581,9 @@ def run_ray(
     workers: int | None = None,
     live: bool | None = None,
     ray_init_kwargs: dict[str, Any] | None = None,
+    only: str | None = None,
 ) -> GridSummary:
-    """Run every unfinished run of ``config`` as one Ray task each.
+    """Run every unfinished run of ``config`` (matching ``only``) as one Ray task each.
 
     ``address=None`` starts a local Ray instance with ``workers`` CPUs; otherwise
     ``ray.init(address=...)`` joins a running cluster (``auto``, or ``HEAD:6379``) and
@@ -570,7 +595,7 @@ def run_ray(
     except ImportError as exc:  # pragma: no cover - ray is an optional dependency
         raise ConfigError("--backend ray needs Ray: pip install 'tlac[ray]'") from exc
     out = Path(out_dir)
-    with _grid_session(config, out) as (todo, summary):
+    with _grid_session(config, out, only) as (todo, summary):
         if not todo:
             return summary
         kwargs: dict[str, Any] = {
@@ -635,6 +660,9 @@ def run_ray(
     return summary
 
 
-def grid_status(config: ExperimentConfig, out_dir: str | Path) -> list[tuple[GridRun, str]]:
-    """Each run of the grid with its status (``finished``/``failed``/``partial``/``missing``)."""
-    return [(r, run_status(run_dir(out_dir, r))) for r in expand_grid(config)]
+def grid_status(
+    config: ExperimentConfig, out_dir: str | Path, only: str | None = None
+) -> list[tuple[GridRun, str]]:
+    """Each run of the grid (matching ``only``) with its status (``finished``/``failed``/
+    ``partial``/``missing``)."""
+    return [(r, run_status(run_dir(out_dir, r))) for r in select_runs(expand_grid(config), only)]
