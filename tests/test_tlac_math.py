@@ -189,3 +189,21 @@ def test_clipped_losses_stay_finite_when_a_teacher_action_was_improbable() -> No
         torch.log(torch.tensor([[1.5]])), torch.zeros(1, 1), torch.tensor([1.0]), 0.2
     )
     assert abs(float(loss2[0]) + 1.2) < 1e-6 and MAX_LOG_RATIO == 20.0
+
+
+def test_selectors_share_one_protocol_and_registry() -> None:
+    """Every high level answers select / episode_end / evaluation_choices, and the registry is
+    the one list of names (TLACConfig, RunSpec and the CLI read it)."""
+    from tlac.run import SELECTORS
+    from tlac.selectors import SELECTOR_NAMES, make_selector
+
+    assert SELECTOR_NAMES == SELECTORS == ("learned", "random", "ucb1")
+    logits = np.array([[0.0, 5.0, 0.0], [3.0, 0.0, 0.0]])
+    learned = make_selector("learned", 3, 1, 0, np.random.default_rng(0), 1.0)
+    assert learned.evaluation_choices(logits, deterministic=True).tolist() == [1, 0]
+    ucb = make_selector("ucb1", 3, 1, 0, np.random.default_rng(0), 1.0)
+    ucb.sums[:], ucb.counts[:] = [1.0, 6.0, 2.0], [1, 2, 1]  # means 1, 3, 2
+    assert ucb.evaluation_choices(logits, deterministic=False).tolist() == [1, 1]
+    rand = make_selector("random", 3, 1, 0, np.random.default_rng(0), 1.0)
+    assert set(rand.evaluation_choices(np.zeros((200, 3)), deterministic=True)) == {0, 1, 2}
+    assert [s.trains_high_level for s in (learned, rand, ucb)] == [True, False, False]

@@ -33,8 +33,9 @@ from tlac.errors import ConfigError, UnknownNameError, read_yaml_file
 from tlac.evaluation import evaluate_student
 from tlac.presets import load_preset
 from tlac.recording import MONITOR_FILE, Recorder
+from tlac.selectors import SELECTOR_NAMES
 
-SELECTORS = ("learned", "random", "ucb1")
+SELECTORS = SELECTOR_NAMES  # the high levels a run may use (tlac.selectors)
 RESULT_FILE = "result.json"
 CHECKPOINT = "checkpoint.pt"
 CHECKPOINT_EVERY = 50_000

@@ -14,6 +14,8 @@ True
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Protocol
 
 import numpy as np
 
@@ -39,6 +41,23 @@ def ucb1_scores(sums: np.ndarray, counts: np.ndarray, c: float, value_range: flo
     return scores
 
 
+class Selector(Protocol):
+    """What TL-AC asks of its high level. ``select`` is called at every step of training with
+    the high-level actor's logits (ignored by the ablations) and which environments start an
+    episode; ``episode_end`` reports each finished episode's return; ``evaluation_choices``
+    is the choice outside training (``TLAC.predict_with_teachers``)."""
+
+    name: str
+    trains_high_level: bool
+    """True when the high-level actor's loss (Eq. 7) is trained."""
+
+    def select(self, high_logits: np.ndarray, episode_starts: np.ndarray) -> np.ndarray: ...
+
+    def episode_end(self, env_index: int, episode_return: float) -> None: ...
+
+    def evaluation_choices(self, high_logits: np.ndarray, deterministic: bool) -> np.ndarray: ...
+
+
 class LearnedSelector:
     """pi_high(e|s): sample the high-level actor's categorical distribution."""
 
@@ -53,6 +72,12 @@ class LearnedSelector:
 
     def episode_end(self, env_index: int, episode_return: float) -> None:
         pass
+
+    def evaluation_choices(self, high_logits: np.ndarray, deterministic: bool) -> np.ndarray:
+        """The most likely choice, or a sample of pi_high."""
+        if deterministic:
+            return high_logits.argmax(-1)
+        return np_sample_categorical(high_logits, self.rng)
 
 
 class RandomSelector:
@@ -70,6 +95,10 @@ class RandomSelector:
 
     def episode_end(self, env_index: int, episode_return: float) -> None:
         pass
+
+    def evaluation_choices(self, high_logits: np.ndarray, deterministic: bool) -> np.ndarray:
+        """Uniform, as in training (there is no most likely choice)."""
+        return self.rng.integers(self.n_choices, size=len(high_logits))
 
 
 class UCB1Selector:
@@ -101,3 +130,26 @@ class UCB1Selector:
         self.counts[arm] += 1
         self.low = min(self.low, episode_return)
         self.high = max(self.high, episode_return)
+
+    def evaluation_choices(self, high_logits: np.ndarray, deterministic: bool) -> np.ndarray:
+        """The arm with the best mean return so far, for every row."""
+        best = int(np.argmax(self.sums / np.maximum(self.counts, 1)))
+        return np.full(len(high_logits), best)
+
+
+SELECTORS: dict[str, Callable[..., Selector]] = {
+    "learned": lambda n_choices, n_envs, seed, rng, ucb_c: LearnedSelector(rng),
+    "random": lambda n_choices, n_envs, seed, rng, ucb_c: RandomSelector(n_choices, seed),
+    "ucb1": lambda n_choices, n_envs, seed, rng, ucb_c: UCB1Selector(
+        n_choices, n_envs, seed, ucb_c
+    ),
+}
+"""The one list of high levels: name -> factory ``(n_choices, n_envs, seed, rng, ucb_c)``."""
+SELECTOR_NAMES = tuple(SELECTORS)
+
+
+def make_selector(
+    name: str, n_choices: int, n_envs: int, seed: int, rng: np.random.Generator, ucb_c: float
+) -> Selector:
+    """The named selector; ``rng`` is TL-AC's acting generator (the learned one samples from it)."""
+    return SELECTORS[name](n_choices, n_envs, seed, rng, ucb_c)

@@ -76,7 +76,7 @@ from tlac.algorithms.rollout import Rollout, compute_gae
 from tlac.errors import ConfigError, UnknownNameError
 from tlac.presets import load_preset, make_schedule, validate_schedule
 from tlac.recording import EpisodeRecorder, Recorder, find_episode_recorder
-from tlac.selectors import LearnedSelector, RandomSelector, UCB1Selector
+from tlac.selectors import SELECTOR_NAMES, Selector, make_selector
 from tlac.teachers.base import Teacher, as_teacher, unique_names
 
 Schedule = float | dict
@@ -330,8 +330,8 @@ class TLACConfig:
             raise UnknownNameError("low_level_data", self.low_level_data, ["all", "agent"])
         if self.vec_env not in ("dummy", "subproc"):
             raise UnknownNameError("vec_env", self.vec_env, ["dummy", "subproc"])
-        if self.selector not in ("learned", "random", "ucb1"):
-            raise UnknownNameError("selector", self.selector, ["learned", "random", "ucb1"])
+        if self.selector not in SELECTOR_NAMES:
+            raise UnknownNameError("selector", self.selector, list(SELECTOR_NAMES))
         depths = {len(self.net_arch_high), len(self.net_arch_low), len(self.net_arch_critic)}
         if len(depths) != 1 or 0 in depths:
             raise ConfigError(
@@ -629,14 +629,9 @@ class TLAC(SB3Compat):
         )
         self.generator = torch.Generator().manual_seed(self.seed)  # minibatch order
         self.rng = np.random.default_rng(self.seed)  # acting
-        if cfg.selector == "learned":
-            self.selector: Any = LearnedSelector(self.rng)
-        elif cfg.selector == "random":
-            self.selector = RandomSelector(self.n_choices, self.seed)
-        else:
-            self.selector = UCB1Selector(
-                self.n_choices, getattr(self, "n_envs", 1), self.seed, cfg.ucb_c
-            )
+        self.selector: Selector = make_selector(
+            cfg.selector, self.n_choices, getattr(self, "n_envs", 1), self.seed, self.rng, cfg.ucb_c
+        )
         self.train_high = self.selector.trains_high_level and self.n_choices > 1
         self.advice_buffer: AdviceBuffer | None = None
         if self.n_teachers and cfg.distill_coef != 0:
@@ -864,15 +859,7 @@ class TLAC(SB3Compat):
             return self.predict(obs, deterministic=deterministic)[0]
         obs = check_observations(obs, self.observation_space)[0]
         high_logits, low_out, _, latent = self._act_heads(obs)
-        if self.selector.name == "ucb1":  # the best arm by mean return so far
-            counts = np.maximum(self.selector.counts, 1)
-            choices = np.full(len(obs), int(np.argmax(self.selector.sums / counts)))
-        elif self.selector.name == "random":
-            choices = self.selector.rng.integers(self.n_choices, size=len(obs))
-        elif deterministic:
-            choices = high_logits.argmax(-1)
-        else:
-            choices = np_sample_categorical(high_logits, self.rng)
+        choices = self.selector.evaluation_choices(high_logits, deterministic)
         if deterministic:
             actions = low_out.argmax(-1) if self.discrete else low_out.copy()
         else:
