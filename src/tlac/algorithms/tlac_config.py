@@ -1,0 +1,325 @@
+"""TL-AC's settings: :class:`TLACConfig` (every setting of the paper's Tables 5, 8 and 10, and
+the graduate variant's), the two variants' defaults, and the translations from a domain's
+preset and from SB3's ``policy_kwargs``.
+
+>>> TLACConfig(variant="paper").kl_rows, TLACConfig().distill_coef
+('all', 1.0)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+from tlac.algorithms import losses
+from tlac.algorithms.common import check_setting_types
+from tlac.algorithms.encoding import ENCODINGS
+from tlac.domains import get_domain
+from tlac.errors import ConfigError, UnknownNameError
+from tlac.presets import load_preset, validate_schedule
+from tlac.selectors import SELECTOR_NAMES
+
+Schedule = float | dict
+
+VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
+    "graduate": {
+        "distill_coef": 1.0,
+        "advice_cost": 0.0,
+        "low_level_data": "agent",
+        "solo_budget": 0.05,
+        "kl_rows": "high",
+        "obs_encoding": "auto",
+        # a capped entropy bonus on the high level: without it, partial teachers (L + R)
+        # collapse the high level onto one teacher (docs/graduation.md)
+        "ent_coef_high": 0.03,
+        "ent_cap_high": 0.5,
+    },
+    "paper": {
+        "distill_coef": 0.0,
+        "advice_cost": 0.0,
+        "low_level_data": "all",
+        "solo_budget": 0.0,
+        # the low level's KL over ALL rows, as an implementation on SB3's PPO computes it (the
+        # paper's tables are SB3's settings); "agent" was the default until issue 9 measured
+        # that it lets pi_low's entropy collapse with imperfect teachers (docs/reproduction.md)
+        "kl_rows": "all",
+        "obs_encoding": "raw",
+        "ent_cap_high": 0.0,  # no cap (ent_coef_high stays the preset's, ent_coef)
+    },
+}
+"""What each TL-AC variant sets when the corresponding setting is left at None."""
+
+
+@dataclass
+class TLACConfig:
+    """TL-AC's settings. Defaults are the paper's DoorKey preset (Table 5)."""
+
+    n_steps: int = 16
+    """Steps collected per environment before each update (Algorithm 1's minibatch M)."""
+    batch_size: int = 16
+    """Minibatch size of the gradient steps; at most n_steps * n_envs."""
+    n_epochs: int = 5
+    """Passes over each rollout (Algorithm 1, line 5)."""
+    learning_rate: Schedule = 7e-4
+    """Number or {linear: [start, end]}."""
+    clip_range: Schedule = 0.2
+    """PPO clip range of both levels' ratios; number or {linear: [start, end]}."""
+    target_kl: Schedule | None = 0.02
+    """Stop the epochs when the larger of the two levels' approximate KL exceeds 1.5x this."""
+    ent_coef: float = 0.0
+    """Entropy bonus of both levels, unless ent_coef_high / ent_coef_low are given."""
+    ent_coef_high: float | None = None
+    """None: ent_coef."""
+    ent_coef_low: float | None = None
+    """None: ent_coef."""
+    ent_cap_high: float | None = None
+    """With a high-level entropy bonus: each state's entropy counts only up to this many nats,
+    so the bonus keeps the high level from collapsing without pushing it towards uniform
+    choices (0: no cap). None: the variant's (graduate 0.5, paper 0). The graduate variant
+    also sets ent_coef_high to 0.03 when the preset leaves it unset (docs/graduation.md)."""
+    vf_coef: float = 0.5
+    max_grad_norm: float = 0.5
+    gamma: float = 0.99
+    gae_lambda: float = 0.85
+    """GAE(lambda); 0 gives the paper's one-step advantage (Eq. 2) exactly."""
+    normalize_advantage: bool = True
+    optimizer: str = "rmsprop_tf"
+    """rmsprop_tf (SB3's RMSpropTFLike, the paper's) or adam."""
+    optimizer_eps: float = 1e-5
+    rmsprop_alpha: float = 0.99
+    use_sde: bool = False
+    """Generalized state-dependent exploration for Box actions (Tables 8, 10)."""
+    sde_sample_freq: int = -1
+    """Resample the gSDE noise every this many steps (-1: once per rollout)."""
+    log_std_init: float = 0.0
+    """Initial log std of the low level's Gaussian (Box actions)."""
+    ortho_init_high: bool = True
+    ortho_init_low: bool = True
+    ortho_init_critic: bool | None = None
+    """None: the same as ortho_init_low (the critic estimates V_pi_low, Eq. 1)."""
+    net_arch_high: list[int] = field(default_factory=lambda: [64, 64])
+    net_arch_low: list[int] = field(default_factory=lambda: [64, 64])
+    net_arch_critic: list[int] = field(default_factory=lambda: [64, 64])
+    variant: str = "graduate"
+    """graduate (the default): the paper's TL-AC plus what makes the student act well ALONE
+    (imitation of the teachers the high level trusts, solo episodes, on-policy low-level
+    gradients, one-hot integer observations; docs/graduation.md). paper: Algorithm 1 exactly,
+    for reproductions. The variant only sets the settings listed in VARIANT_DEFAULTS that are
+    left at None; any of them can still be set by hand."""
+    distill_coef: Schedule | None = None
+    """Weight of the low level's imitation of the teachers, each weighted per state by the high
+    level's probability of choosing it (docs/graduation.md); number or {linear: [start, end]}.
+    None: the variant's (graduate 1.0, paper 0)."""
+    awr_coef: float = 0.0
+    """Advantage-weighted imitation of the EXECUTED teacher actions (AWR, Peng et al. 2019):
+    adds ``awr_coef * mean over teacher rows of -exp(min(A / awr_beta, log 20)) log
+    pi_low(a|s)`` (normalised advantages, no gradient through the weight), so that a noisy
+    teacher's better actions count more than its random ones. 0 (off) in both variants: a
+    candidate for noisy teachers (docs/graduation.md)."""
+    awr_beta: float = 1.0
+    """Temperature of awr_coef's weights (in units of the normalised advantage)."""
+    advice_cost: float | None = None
+    """Subtracted from the high level's (normalised) advantage wherever a teacher acted, so that
+    control passes to the agent once its actions are about as good. None: the variant's
+    (0 in both: measured, it cost training return without helping the student alone,
+    docs/graduation.md)."""
+    imitation_buffer_size: int = 50_000
+    """States (with every teacher's advice) kept for the imitation term (DAgger's data set)."""
+    imitation_batch_size: int = 64
+    """Replayed states in each gradient step's imitation term."""
+    solo_budget: float | None = None
+    """Graduation by solo episodes: an episode is played by the student alone with probability
+    min(1, solo_budget / (1 - competence)), competence measured from recent solo and assisted
+    returns (tlac.algorithms.graduation), so solo play costs the training return about
+    solo_budget of the teachers' margin. None: the variant's (graduate 0.05, paper 0)."""
+    normalize_obs: bool = False
+    """Normalise the networks' observations by their running mean and std (SB3's VecNormalize,
+    clipped to +-norm_clip), inside TL-AC: teachers still see raw observations. Not with a
+    one-hot obs_encoding (categories have no scale)."""
+    normalize_reward: bool = False
+    """Divide training rewards by the running std of the discounted return (SB3's
+    VecNormalize); logged returns stay raw."""
+    norm_clip: float = 10.0
+    """Clip of the normalised observations and rewards."""
+    imitation_std: float = 0.1
+    """Box actions: the imitation term is the negative log-likelihood of the teachers' actions
+    under a Gaussian around the low level's mean with this fixed standard deviation, in units
+    of the action box's half-width (imitation does not touch the exploration noise). 1.0 was
+    the first choice and left hopper's student alone at ~150: its imitation gradient was 100x
+    weaker than at 0.1, far below the policy gradient's (docs/graduation.md)."""
+    trust: str = "soft"
+    """How the imitation term weighs the teachers in a state: soft (the high level's
+    probabilities among the teachers) or max (the teacher the high level prefers there, alone:
+    DAgger's relabelling with the preferred teacher; a candidate, docs/graduation.md)."""
+    solo_critic: bool = True
+    """Whether the shared critic also learns from solo episodes. False: it fits the returns of
+    assisted episodes only, the behaviour the high level's advantages are about (a candidate,
+    docs/graduation.md)."""
+    imitate_after_stop: bool = False
+    """When the target-KL stop ends an update early, spend its remaining gradient steps on the
+    imitation term alone (the high level, the low level's policy gradient and the critic stop as
+    in the paper). Meant with kl_rows: agent; a candidate, docs/graduation.md."""
+    agent_gate: bool = False
+    """With solo episodes: where the high level picks the agent in an assisted episode, the
+    agent acts only with probability competence, else a teacher the high level prefers
+    (tlac.algorithms.graduation). Off in both variants: it keeps the training return of
+    partial teachers (L + R) from collapsing, but slows the student elsewhere
+    (docs/graduation.md)."""
+    kl_rows: str | None = None
+    """Which rows give the low level's approximate KL for the target-KL stop: agent (where the
+    agent acted: pi_low's own samples), all (every row, as a PPO built on SB3 computes it) or
+    high (none: only the high level's KL stops the epochs, since the imitation term moves
+    pi_low on purpose; without an imitation term it acts as agent). None: the variant's
+    (graduate high, paper agent)."""
+    obs_encoding: str | None = None
+    """raw, onehot (each integer observation dimension as indicators) or auto (onehot for an
+    integer-dtype Box with small ranges, else raw; tlac.algorithms.encoding). None: the
+    variant's (graduate auto, paper raw)."""
+    low_level_data: str | None = None
+    """Which transitions train the low level's policy gradient: all (the paper, Eq. 3 on every
+    executed action) or agent (only where it acted, so every ratio is an importance weight of
+    pi_low's own samples). None: the variant's (graduate agent, paper all)."""
+    selector: str = "learned"
+    """High level: learned (TL-AC), random or ucb1 (per episode) -- the Figure 11 ablations."""
+    ucb_c: float = 1.0
+    """UCB1 exploration constant (scaled by the observed return range)."""
+    n_envs: int = 1
+    """Parallel environments, used only when TLAC builds the environment from a domain name."""
+    vec_env: str = "dummy"
+    """How TLAC steps those environments: dummy (in this process, SB3's DummyVecEnv; needed for
+    an exact resume) or subproc (one process each, SB3's SubprocVecEnv; for slow
+    environments). Used only when TLAC builds the environment from a domain name."""
+
+    def __post_init__(self) -> None:
+        if self.variant not in VARIANT_DEFAULTS:
+            raise UnknownNameError("variant", self.variant, list(VARIANT_DEFAULTS))
+        for name, value in VARIANT_DEFAULTS[self.variant].items():
+            if getattr(self, name) is None:
+                setattr(self, name, value)
+
+    @classmethod
+    def from_settings(cls, settings: dict[str, Any]) -> TLACConfig:
+        """Build and validate a config; unknown keys or bad values raise ConfigError."""
+        names = [f.name for f in dataclasses.fields(cls)]
+        for key in settings:
+            if key not in names:
+                raise ConfigError(
+                    f"unknown TL-AC setting {key!r}; expected one of: {', '.join(names)}"
+                )
+        check_setting_types(cls, settings, "TL-AC")
+        cfg = cls(**settings)
+        cfg.validate()
+        return cfg
+
+    def validate(self) -> None:
+        def positive_int(name: str) -> None:
+            v = getattr(self, name)
+            if not isinstance(v, int) or isinstance(v, bool) or v <= 0:
+                raise ConfigError(f"TL-AC setting {name} must be a positive integer, got {v!r}")
+
+        for name in (
+            "n_steps",
+            "batch_size",
+            "n_epochs",
+            "n_envs",
+            "imitation_buffer_size",
+            "imitation_batch_size",
+        ):
+            positive_int(name)
+        for name in ("learning_rate", "clip_range", "distill_coef"):
+            validate_schedule(name, getattr(self, name))
+        if self.target_kl is not None:
+            validate_schedule("target_kl", self.target_kl)
+        for name in ("gamma", "gae_lambda"):
+            v = getattr(self, name)
+            if not 0.0 <= v <= 1.0:
+                raise ConfigError(f"TL-AC setting {name} must be in [0, 1], got {v!r}")
+        for name in (
+            "vf_coef",
+            "max_grad_norm",
+            "ent_coef",
+            "optimizer_eps",
+            "advice_cost",
+            "ent_cap_high",
+            "solo_budget",
+            "awr_coef",
+        ):
+            if getattr(self, name) < 0:
+                raise ConfigError(f"TL-AC setting {name} must be >= 0, got {getattr(self, name)!r}")
+        if self.optimizer not in ("rmsprop_tf", "adam"):
+            raise UnknownNameError("optimizer", self.optimizer, ["rmsprop_tf", "adam"])
+        if self.kl_rows not in ("agent", "all", "high"):
+            raise UnknownNameError("kl_rows", self.kl_rows, ["agent", "all", "high"])
+        if self.obs_encoding not in ENCODINGS:
+            raise UnknownNameError("obs_encoding", self.obs_encoding, list(ENCODINGS))
+        if not self.awr_beta > 0:  # also rejects NaN
+            raise ConfigError(f"TL-AC setting awr_beta must be > 0, got {self.awr_beta!r}")
+        if not self.norm_clip > 0:  # also rejects NaN
+            raise ConfigError(f"TL-AC setting norm_clip must be > 0, got {self.norm_clip!r}")
+        if not self.imitation_std > 0:  # also rejects NaN
+            raise ConfigError(
+                f"TL-AC setting imitation_std must be > 0, got {self.imitation_std!r}"
+            )
+        if self.trust not in losses.TRUST_RULES:
+            raise UnknownNameError("trust", self.trust, list(losses.TRUST_RULES))
+        if self.low_level_data not in ("all", "agent"):
+            raise UnknownNameError("low_level_data", self.low_level_data, ["all", "agent"])
+        if self.vec_env not in ("dummy", "subproc"):
+            raise UnknownNameError("vec_env", self.vec_env, ["dummy", "subproc"])
+        if self.selector not in SELECTOR_NAMES:
+            raise UnknownNameError("selector", self.selector, list(SELECTOR_NAMES))
+        depths = {len(self.net_arch_high), len(self.net_arch_low), len(self.net_arch_critic)}
+        if len(depths) != 1 or 0 in depths:
+            raise ConfigError(
+                "net_arch_high, net_arch_low and net_arch_critic must have the same, non-zero number "
+                f"of layers (widths may differ), got {self.net_arch_high}, {self.net_arch_low}, {self.net_arch_critic}"
+            )
+
+
+def domain_preset(name: str) -> dict[str, Any]:
+    """The TL-AC settings of a named domain's preset (paper Tables 5, 8, 10)."""
+    domain = get_domain(name)
+    return load_preset(domain.presets["tlac"], "tlac") if "tlac" in domain.presets else {}
+
+
+def settings_from_policy_kwargs(policy_kwargs: Any) -> dict[str, Any]:
+    """SB3's ``policy_kwargs`` as TL-AC settings: ``net_arch`` (a list: every network; or
+    ``dict(pi=[...], vf=[...])``: both actors, the critic), ``log_std_init`` and
+    ``ortho_init``. Anything else is a ConfigError naming it; settings given directly win.
+
+    >>> settings_from_policy_kwargs({"net_arch": {"pi": [32], "vf": [16]}, "ortho_init": False})
+    {'net_arch_high': [32], 'net_arch_low': [32], 'net_arch_critic': [16], 'ortho_init_high': False, 'ortho_init_low': False}
+    """
+    if policy_kwargs is None:
+        return {}
+    if not isinstance(policy_kwargs, dict):
+        raise ConfigError(f"policy_kwargs must be a dict (as in SB3), got {policy_kwargs!r}")
+    unknown = set(policy_kwargs) - {"net_arch", "log_std_init", "ortho_init"}
+    if unknown:
+        raise ConfigError(
+            f"policy_kwargs {sorted(unknown)} are not supported by TL-AC; it takes net_arch, "
+            "log_std_init and ortho_init (its other networks' settings are TL-AC settings)"
+        )
+    out: dict[str, Any] = {}
+    arch = policy_kwargs.get("net_arch")
+    if isinstance(arch, dict):
+        if set(arch) - {"pi", "vf"}:
+            raise ConfigError(
+                f"policy_kwargs net_arch takes the keys pi and vf, got {sorted(arch)}"
+            )
+        out.update(
+            net_arch_high=arch.get("pi"),
+            net_arch_low=arch.get("pi"),
+            net_arch_critic=arch.get("vf"),
+        )
+        out = {k: v for k, v in out.items() if v is not None}
+    elif arch is not None:
+        out.update(net_arch_high=arch, net_arch_low=arch, net_arch_critic=arch)
+    if "log_std_init" in policy_kwargs:
+        out["log_std_init"] = policy_kwargs["log_std_init"]
+    if "ortho_init" in policy_kwargs:
+        out.update(
+            ortho_init_high=policy_kwargs["ortho_init"], ortho_init_low=policy_kwargs["ortho_init"]
+        )
+    return out
