@@ -18,7 +18,6 @@ clipped surrogate the paper's tables imply), :meth:`TLAC.learn` (the outer loop)
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -28,22 +27,15 @@ import gymnasium as gym
 import numpy as np
 import torch
 from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
-from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 from torch import nn
 
 from tlac.algorithms import losses
 from tlac.algorithms.callbacks import LearnCallbacks, SB3Compat
 from tlac.algorithms.common import (
-    atomic_torch_save,
-    check_env_spaces,
     check_observations,
     check_seed,
-    checkpoint_path,
     make_progress_bar,
     query_teachers,
-    safe_torch_load,
-    space_from_data,
-    space_to_data,
     stop_if_not_finite,
 )
 from tlac.algorithms.encoding import make_encoder
@@ -63,14 +55,6 @@ from tlac.algorithms.nets import (
     np_sample_categorical,
 )
 from tlac.algorithms.normalization import Normalizer
-from tlac.algorithms.resume import (
-    attributes_state,
-    generator_states,
-    restore_attributes,
-    restore_generator_states,
-    restore_vec_env,
-    vec_env_state,
-)
 from tlac.algorithms.rollout import Rollout, compute_gae
 from tlac.algorithms.tlac_config import (  # noqa: F401  (re-exported: the names' old home)
     VARIANT_DEFAULTS,
@@ -79,38 +63,12 @@ from tlac.algorithms.tlac_config import (  # noqa: F401  (re-exported: the names
     domain_preset,
     settings_from_policy_kwargs,
 )
+from tlac.algorithms.tlac_io import FORMAT, TLACPersistence, as_vec_env  # noqa: F401
 from tlac.errors import ConfigError
 from tlac.presets import load_preset, make_schedule
 from tlac.recording import EpisodeRecorder, Recorder, find_episode_recorder
 from tlac.selectors import Selector, make_selector
 from tlac.teachers.base import Teacher, as_teacher, unique_names
-
-FORMAT = "tlac.TLAC/2"
-"""Checkpoint format: plain data and tensors only (loads with weights_only=True). Format 1
-pickled the Gymnasium spaces and needed an unsafe load."""
-
-
-def _as_vec_env(env: Any, n_envs: int, seed: int, vec_env: str = "dummy") -> tuple[VecEnv, Any]:
-    """Accept a domain name, a Gymnasium env or an SB3 VecEnv; returns (vec_env, domain|None).
-    A domain name gets ``n_envs`` environments in a DummyVecEnv or (``vec_env="subproc"``) a
-    SubprocVecEnv."""
-    if isinstance(env, str):
-        from tlac.domains import get_domain, make_vec_env
-
-        domain = get_domain(env)
-        return make_vec_env(domain, n_envs, seed, None, subprocesses=vec_env == "subproc"), domain
-    if isinstance(env, VecEnv):
-        venv = env
-    elif isinstance(env, gym.Env):
-        venv = DummyVecEnv([lambda: env])
-        venv.seed(seed)
-    else:
-        raise ConfigError(
-            f"env must be a domain name, a gymnasium.Env or an SB3 VecEnv, got {env!r}"
-        )
-    if find_episode_recorder(venv) is None:
-        venv = EpisodeRecorder(venv)
-    return venv, None
 
 
 def _teacher_label(teacher: Any, index: int) -> str:
@@ -126,7 +84,7 @@ def _teacher_label(teacher: Any, index: int) -> str:
     return f"teacher{index}"
 
 
-class TLAC(SB3Compat):
+class TLAC(SB3Compat, TLACPersistence):
     """Two-Level Actor-Critic. ``TLAC(env, teachers, **settings).learn(steps)``.
 
     ``env``: a domain name (``"doorkey"``), a Gymnasium env or an SB3 ``VecEnv``.
@@ -181,7 +139,7 @@ class TLAC(SB3Compat):
         self.config = TLACConfig.from_settings(settings)
         self.seed = seed = check_seed(seed)
         torch.manual_seed(seed)
-        self.env, domain = _as_vec_env(env, self.config.n_envs, seed, self.config.vec_env)
+        self.env, domain = as_vec_env(env, self.config.n_envs, seed, self.config.vec_env)
         self.n_envs = self.env.num_envs
         if self.config.batch_size > self.config.n_steps * self.n_envs:
             raise ConfigError(
@@ -906,174 +864,3 @@ class TLAC(SB3Compat):
             names = [*self.teacher_names, "agent"]
             parts.append(" ".join(f"{n} {f:.0%}" for n, f in zip(names, frac, strict=True)))
         return " | ".join(parts)
-
-    # ----------------------------------------------------------------- persistence
-    def save(
-        self,
-        path: str | Path,
-        training_state: bool = False,
-        run_state: dict[str, Any] | None = None,
-    ) -> Path:
-        """Save the networks, optimizer and settings (never the teachers) to ``path`` (.pt).
-
-        ``training_state``: also everything that training needs to continue exactly as if it
-        had never stopped (random-number generators, the teachers' generators, the advice
-        buffer, the solo statistics and the environments with their episodes in progress);
-        ``load(..., resume=True)`` restores it. Such a file is larger (the advice buffer).
-        ``run_state``: plain data saved alongside under ``"run"`` (``tlac.run``: what the run
-        folder's writers need to continue), in the same file so that both change together."""
-        path = checkpoint_path(path)
-        state = {
-            "format": FORMAT,
-            "config": dataclasses.asdict(self.config),
-            "seed": self.seed,
-            "num_timesteps": self.num_timesteps,
-            "observation_space": space_to_data(self.observation_space),
-            "action_space": space_to_data(self.action_space),
-            "teacher_names": self.teacher_names,
-            "net": self.net.state_dict(),
-            "log_std": None if self.log_std is None else self.log_std.detach().clone(),
-            "optimizer": self.optimizer.state_dict(),
-            "normalizer": None if self.normalizer is None else self.normalizer.state(),
-        }
-        if training_state:
-            state["training"] = self._training_state()
-        if run_state is not None:
-            state["run"] = run_state
-        return atomic_torch_save(state, path)
-
-    def _training_state(self) -> dict[str, Any]:
-        """What :meth:`save` writes with ``training_state=True`` (plain data and tensors)."""
-        buf = self.advice_buffer
-
-        def tensor(a: np.ndarray | None) -> torch.Tensor | None:
-            return None if a is None else torch.from_numpy(np.array(a))
-
-        return {
-            "rng": self.rng.bit_generator.state,
-            "generator": self.generator.get_state(),
-            "replay_generator": self._replay_generator.get_state(),
-            "selector": attributes_state(self.selector),
-            "solo": None if self.solo is None else attributes_state(self.solo),
-            "advice": None
-            if buf is None
-            else {
-                "obs": buf.obs[: buf.size].clone(),
-                "advice": buf.advice[: buf.size].clone(),
-                "next": buf.next,
-                "size": buf.size,
-            },
-            "last_obs": tensor(self._last_obs),
-            "episode_starts": tensor(getattr(self, "_episode_starts", None)),
-            "episode_returns": tensor(getattr(self, "_episode_returns", None)),
-            "sde_noise": tensor(self._sde_noise),
-            "teachers": [generator_states(t) for t in self.teachers],
-            "env": vec_env_state(self.env),
-            "schedule": None if self._schedule is None else list(self._schedule),
-            "n_updates": self._n_updates,
-        }
-
-    def _load_training_state(self, state: dict[str, Any]) -> None:
-        """Restore what :meth:`_training_state` saved (see :mod:`tlac.algorithms.resume`)."""
-        self.rng.bit_generator.state = state["rng"]
-        self.generator.set_state(state["generator"])
-        self._replay_generator.set_state(state["replay_generator"])
-        restore_attributes(self.selector, state["selector"])
-        if (state["solo"] is None) != (self.solo is None):
-            raise ConfigError("the checkpoint's solo-episode statistics do not match the settings")
-        if self.solo is not None:
-            restore_attributes(self.solo, state["solo"])
-        if state["advice"] is not None and self.advice_buffer is not None:
-            buf, saved = self.advice_buffer, state["advice"]
-            buf.obs[: saved["size"]] = saved["obs"]
-            buf.advice[: saved["size"]] = saved["advice"]
-            buf.next, buf.size = saved["next"], saved["size"]
-        for name in ("last_obs", "episode_starts", "episode_returns", "sde_noise"):
-            value = state[name]
-            setattr(self, f"_{name}", None if value is None else value.numpy().copy())
-        if len(state["teachers"]) != len(self.teachers):
-            raise ConfigError(
-                f"the checkpoint was saved with {len(state['teachers'])} teachers, "
-                f"got {len(self.teachers)}"
-            )
-        for teacher, states in zip(self.teachers, state["teachers"], strict=True):
-            restore_generator_states(teacher, states)
-        restore_vec_env(self.env, state["env"])
-        schedule = state["schedule"]
-        self._resumed_schedule = None if schedule is None else (int(schedule[0]), int(schedule[1]))
-        self._n_updates = int(state.get("n_updates", 0))
-
-    @classmethod
-    def load(
-        cls,
-        path: str | Path,
-        env: Any = None,
-        teachers: Sequence[Any] | None = None,
-        resume: bool = False,
-    ) -> TLAC:
-        """Load a saved model. Pass ``env`` (and, to train on with advice, the same number of
-        ``teachers`` as at save time) to continue training; ``predict`` needs neither.
-
-        ``resume``: restore the training state of a file saved with ``training_state=True``
-        (needs ``env`` and the same ``teachers``), so that ``learn`` continues exactly where
-        the saved model stopped; the next ``learn`` call keeps the schedules (learning rate,
-        clip range...) of the call that was interrupted, so a run resumed with its remaining
-        steps follows the same schedules as an uninterrupted one. This unpickles the saved environments: resume your own
-        checkpoints only. Without ``resume`` loading runs no code from the file."""
-        path = Path(path)
-        if not path.exists() and path.with_name(path.name + ".pt").exists():
-            path = path.with_name(path.name + ".pt")
-        if not path.exists():
-            raise ConfigError(f"no TL-AC model at {str(path)!r}")
-        state = safe_torch_load(path, "TL-AC model")
-        if not isinstance(state, dict) or state.get("format") != FORMAT:
-            found = state.get("format") if isinstance(state, dict) else None
-            hint = f" (it is {found}, from an older tlac: retrain it)" if found else ""
-            raise ConfigError(f"{str(path)!r} is not a {FORMAT} model file{hint}")
-        obs_space = space_from_data(state["observation_space"])
-        action_space = space_from_data(state["action_space"])
-        model = cls.__new__(cls)
-        model.config = TLACConfig(**state["config"])
-        model.seed = state["seed"]
-        model.recorder = None
-        model.num_timesteps = state["num_timesteps"]
-        model._last_obs = None
-        names = state["teacher_names"]
-        if env is not None:
-            model.env, domain = _as_vec_env(env, model.config.n_envs, model.seed)
-            model.n_envs = model.env.num_envs
-            check_env_spaces(model.env, obs_space, action_space)
-        else:
-            model.env, domain, model.n_envs = None, None, 1
-        model.teachers = []
-        if teachers is not None:
-            if model.env is None and teachers and all(isinstance(t, str) for t in teachers):
-                raise ConfigError("teacher names need env to be a domain name")
-            model.teachers = model._make_teachers(teachers, domain, model.seed) if teachers else []
-            if len(model.teachers) != len(names):
-                raise ConfigError(
-                    f"the model was trained with {len(names)} teachers ({', '.join(names) or 'none'}); "
-                    f"got {len(model.teachers)}"
-                )
-        model._build(obs_space, action_space, names)
-        # checkpoints before the per-layer masks stored an all-ones mask for every layer
-        known = model.net.state_dict()
-        model.net.load_state_dict({k: v for k, v in state["net"].items() if k in known})
-        if state["log_std"] is not None:
-            assert model.log_std is not None
-            with torch.no_grad():
-                model.log_std.copy_(state["log_std"])
-        model.optimizer.load_state_dict(state["optimizer"])
-        if model.normalizer is not None:
-            if state.get("normalizer") is None:
-                raise ConfigError(f"{path} was saved without its normalisation statistics")
-            model.normalizer.set_state(state["normalizer"])
-        if resume:
-            if "training" not in state:
-                raise ConfigError(
-                    f"{str(path)!r} holds no training state; save it with training_state=True"
-                )
-            if model.env is None:
-                raise ConfigError("resume=True needs env (the environments are restored into it)")
-            model._load_training_state(state["training"])
-        return model
