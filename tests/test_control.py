@@ -147,7 +147,7 @@ def test_pickplace_ac_teach_pick_and_place_teachers() -> None:
     domain = get_domain("pickplace")
     env = domain.make_env()
     pick, place = make_teachers(domain, ["pick", "place"], env, seed=0)
-    total, observations, info = _run_episode(env, pick, seed=3)
+    _total, observations, info = _run_episode(env, pick, seed=3)
     obs = np.stack(observations)
     regions = domain.region_of(obs)
     assert regions.max() == 1 and regions[-1] == 1  # grasps, and keeps holding
@@ -203,7 +203,7 @@ def test_shipped_hopper_bullet_teacher_beats_random() -> None:
     teacher_return = np.mean([_run_episode(env, optimal, s)[0] for s in (1, 2)])
     random_return = np.mean([_run_episode(env, random, s)[0] for s in (1, 2)])
     assert teacher_return > random_return + 100, (teacher_return, random_return)
-    good, noisy = make_teachers(domain, ["good", "noisy"], env, seed=0)
+    good, _noisy = make_teachers(domain, ["good", "noisy"], env, seed=0)
     check_actions("good", good.predict(np.stack([env.reset(seed=0)[0]] * 3)), env.action_space, 3)
 
 

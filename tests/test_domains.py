@@ -52,14 +52,14 @@ def test_bad_domains_are_refused(bad: dict, match: str) -> None:
     example = get_domain(f"{EXAMPLE}:DOMAIN")
     with pytest.raises(ConfigError, match=match):
         register_domain(dataclasses.replace(example, **bad))
-    with pytest.raises(ConfigError, match="takes a tlac.domains.Domain"):
+    with pytest.raises(ConfigError, match=r"takes a tlac\.domains\.Domain"):
         register_domain("doorkey")  # type: ignore[arg-type]
 
 
 def test_a_domain_file_that_is_not_there_or_not_a_domain() -> None:
     with pytest.raises(ConfigError, match="cannot import"):
         get_domain("no/such/file.py:DOMAIN")
-    with pytest.raises(ConfigError, match="is not a tlac.domains.Domain"):
+    with pytest.raises(ConfigError, match=r"is not a tlac\.domains\.Domain"):
         get_domain(f"{EXAMPLE}:pd_controller")
 
 
@@ -67,8 +67,19 @@ def test_tlac_train_and_an_experiment_config_take_a_domain_file(tmp_path: Path) 
     out = tmp_path / "run"
     cli = [sys.executable, "-m", "tlac.cli"]
     proc = subprocess.run(
-        [*cli, "train", "--env", f"{EXAMPLE}:DOMAIN", "--steps", "256", "--out", str(out)]
-        + ["--no-progress", "--eval-episodes", "2"],
+        [
+            *cli,
+            "train",
+            "--env",
+            f"{EXAMPLE}:DOMAIN",
+            "--steps",
+            "256",
+            "--out",
+            str(out),
+            "--no-progress",
+            "--eval-episodes",
+            "2",
+        ],
         capture_output=True,
         text=True,
         timeout=300,

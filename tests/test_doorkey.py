@@ -174,9 +174,8 @@ def _plan_first_action_bfs(grid: np.ndarray) -> int | None:
             elif action == PICKUP:
                 if front_is_key:
                     push((x, y, d, True, o), head)
-            elif action == TOGGLE:
-                if front_is_door and not o and (k or not needs_key):
-                    push((x, y, d, k, True), head)
+            elif action == TOGGLE and front_is_door and not o and (k or not needs_key):
+                push((x, y, d, k, True), head)
         return None
 
     found = expand(*start, None)
@@ -244,9 +243,9 @@ def test_reward_time_limit_and_truncation():
     total, steps, terminated, _ = run_episode(env, lambda o: 0, seed=0)
     assert (total, steps, terminated) == (0.0, 490, False)
     short = make_doorkey_env(max_steps=20)
-    obs, _ = short.reset(seed=0)
+    short.reset(seed=0)
     for t in range(1, 21):
-        obs, reward, terminated, truncated, _ = short.step(1)
+        _obs, _reward, terminated, truncated, _ = short.step(1)
         assert (terminated, truncated) == (False, t == 20)
     # Success: MiniGrid's reward 1 - 0.9 * steps / max_steps, terminated, not truncated.
     teacher = DoorKeyOptimalTeacher()
@@ -300,7 +299,7 @@ def test_optimal_teacher_recovers_from_any_state(env):
     rng = np.random.default_rng(0)
     for seed in range(40):
         prefix = rng.integers(0, 6, size=int(rng.integers(0, 80))).tolist()
-        total, steps, terminated, _ = run_episode(
+        _total, steps, terminated, _ = run_episode(
             env, lambda o: teacher.predict(o[None])[0], seed, first_actions=prefix
         )
         assert terminated or steps == 490

@@ -37,7 +37,7 @@ def test_jumpstart_against_hand_values():
     base = [([300, 3000], [0.1, 0.5]), ([500, 999], [0.0, 0.0])]
     assert m.jumpstart(runs, base, window=1000) == pytest.approx(0.7 - 0.05)
     # a run without an episode in the window is skipped, not counted as 0
-    runs2 = runs + [([5000], [9.0])]
+    runs2 = [*runs, ([5000], [9.0])]
     assert m.jumpstart(runs2, base, window=1000) == pytest.approx(0.65)
     assert math.isnan(m.jumpstart([([5000], [1.0])], base, window=1000))
 

@@ -144,7 +144,7 @@ def test_load_rejects_another_algorithm_and_mismatched_spaces(tmp_path: Path) ->
     with pytest.raises(ConfigError, match="is not a ac-teach model file"):
         get_algorithm("ac-teach").load(path)
     pend = _pendulum_ac_teach()
-    with pytest.raises(ConfigError, match="observation space .* does not match the model's"):
+    with pytest.raises(ConfigError, match=r"observation space .* does not match the model's"):
         get_algorithm("dqn-tlql").load(path, env=pend.env)
 
 

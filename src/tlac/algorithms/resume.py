@@ -29,8 +29,7 @@ def _generators(obj: Any, depth: int, seen: set[int]) -> list[np.random.Generato
         depth < 0
         or id(obj) in seen
         or isinstance(obj, _SKIP)
-        or callable(obj)
-        and not hasattr(obj, "__dict__")
+        or (callable(obj) and not hasattr(obj, "__dict__"))
     ):
         return []
     seen.add(id(obj))

@@ -116,9 +116,9 @@ def sb3_kwargs(algo: str, hp: dict[str, Any]) -> dict[str, Any]:
     }
     parameters = inspect.signature(sb3_cls.__init__).parameters
     for key, value in hp.items():
-        if key in parameters and isinstance(parameters[key].default, bool):
-            if not isinstance(value, bool):
-                raise ConfigError(f"{algo} setting {key} must be true or false, got {value!r}")
+        is_flag = key in parameters and isinstance(parameters[key].default, bool)
+        if is_flag and not isinstance(value, bool):
+            raise ConfigError(f"{algo} setting {key} must be true or false, got {value!r}")
         if key not in accepted:
             raise ConfigError(
                 f"unknown {algo} hyperparameter {key!r}; expected one of: "

@@ -579,7 +579,7 @@ class _Report:
                         ]
                         cells.append(fmt(M.probability_of_improvement(xs, ys)))
                     rows.append(
-                        [algorithm_label(c, x), algorithm_label(c, y), str(len(sets))] + cells
+                        [algorithm_label(c, x), algorithm_label(c, y), str(len(sets)), *cells]
                     )
             text += [
                 "Probability of improvement P(X > Y) (rliable): per teacher set, the share of "

@@ -227,7 +227,7 @@ def evaluate_teachers(config: ExperimentConfig, out: Path) -> dict[str, Any]:
             data[kind] = {
                 "mean": float(returns.mean()),
                 "std": float(returns.std()),
-                "episodes": int(len(returns)),
+                "episodes": len(returns),
             }
         except Exception as exc:  # reference lines are optional: record and go on
             data[kind] = {"error": f"{type(exc).__name__}: {exc}"}

@@ -66,9 +66,7 @@ def actor_state_dict(sb3_actor: nn.Module) -> dict[str, torch.Tensor]:
     """
     out: dict[str, torch.Tensor] = {}
     for key, value in sb3_actor.state_dict().items():
-        if key.startswith("latent_pi."):
-            out[key] = value.detach().clone().float()
-        elif key in ("mu.weight", "mu.bias"):
+        if key.startswith("latent_pi.") or key in ("mu.weight", "mu.bias"):
             out[key] = value.detach().clone().float()
         elif key in ("mu.0.weight", "mu.0.bias"):
             out["mu." + key.split(".")[-1]] = value.detach().clone().float()

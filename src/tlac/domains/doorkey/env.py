@@ -161,7 +161,7 @@ def obs_to_grid(obs_batch: np.ndarray) -> np.ndarray:
     if obs.ndim == 1:
         obs = obs[None]
     cells = obs.shape[1] // 3
-    side = int(round(np.sqrt(cells)))
+    side = round(np.sqrt(cells))
     if obs.ndim != 2 or side * side * 3 != obs.shape[1]:
         raise ConfigError(
             f"expected flattened DoorKey observations of shape (n, 3*s*s); got {obs.shape}"

@@ -108,7 +108,7 @@ class _DistanceTables:
         (toggle: 1 + the distance in mode ``(k, True)``). Those exits have different
         distances, so the search takes them in by increasing distance (Dial's buckets)."""
         n = len(cells)
-        side = int(round(n**0.5))
+        side = round(n**0.5)
         steps = (side, 1, -side, -1)  # cell offset of one step in each direction
         passable = [c == _FREE for c in cells]
         if not k:
@@ -178,7 +178,7 @@ class _DistanceTables:
         whose successor is closest to the goal. ``key_cell`` / ``door_cell`` are -1 when
         the key is carried / the door is hidden by the agent (standing in the doorway)."""
         n = len(cells)
-        side = int(round(n**0.5))
+        side = round(n**0.5)
         front = agent + (side, 1, -side, -1)[d]
         if cells[front] == _GOAL:
             return FORWARD

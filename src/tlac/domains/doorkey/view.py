@@ -99,6 +99,6 @@ def partial_view(obs_batch: np.ndarray) -> np.ndarray:
     obs = np.asarray(obs_batch)
     if obs.ndim == 1:
         obs = obs[None]
-    side = int(round(np.sqrt(obs.shape[1] // 3)))
+    side = round(np.sqrt(obs.shape[1] // 3))
     grids = np.rint(obs).astype(np.int64).reshape(len(obs), side, side, 3)
     return np.stack([partial_view_of_grid(g).reshape(-1) for g in grids])
