@@ -59,7 +59,7 @@ def main() -> None:
         rows.append(row)
         print(
             f"{row['steps']:>9} {row['rss_mb']:>8} {row['steps_per_s']:>8} "
-            f"{str(finite):>6} {row['train_return']:>12}",
+            f"{finite!s:>6} {row['train_return']:>12}",
             flush=True,
         )
         if args.out:
