@@ -9,19 +9,26 @@ import pytest
 from stable_baselines3.common.running_mean_std import RunningMeanStd as SB3RunningMeanStd
 
 from tlac import TLAC
-from tlac.algorithms.normalization import Normalizer, RunningMeanStd
+from tlac.algorithms.normalization import Normalizer
 from tlac.errors import ConfigError
 
 
-def test_running_mean_std_equals_sb3s_on_a_stream_of_batches() -> None:
+def test_observation_statistics_are_sb3s_and_survive_a_state_round_trip() -> None:
     rng = np.random.default_rng(0)
-    ours, sb3 = RunningMeanStd((3,)), SB3RunningMeanStd(shape=(3,))
+    norm, sb3 = (
+        Normalizer(3, 1, 0.99, obs=True, reward=False, clip=10.0),
+        SB3RunningMeanStd(shape=(3,)),
+    )
     for _ in range(20):
         batch = rng.normal(5.0, 3.0, size=(int(rng.integers(1, 9)), 3))
-        ours.update(batch)
+        norm.update_obs(batch)
         sb3.update(batch)
-    np.testing.assert_allclose(ours.mean, sb3.mean)
-    np.testing.assert_allclose(ours.var, sb3.var)
+    np.testing.assert_allclose(norm.obs_rms.mean, sb3.mean)
+    np.testing.assert_allclose(norm.obs_rms.var, sb3.var)
+    copy = Normalizer(3, 1, 0.99, obs=True, reward=False, clip=10.0)
+    copy.set_state(norm.state())
+    x = rng.normal(size=(4, 3)).astype(np.float32)
+    np.testing.assert_array_equal(copy.obs_numpy(x), norm.obs_numpy(x))
 
 
 def test_reward_scaling_by_hand() -> None:

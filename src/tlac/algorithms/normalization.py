@@ -3,14 +3,14 @@ it, kept INSIDE TL-AC so that teachers still receive the raw observations they w
 trained for (issue 9's hopper question; docs/reproduction.md).
 
 * Observations: ``clip((obs - mean) / sqrt(var + eps), -clip, clip)`` with the running mean and
-  variance of every observation seen while training (Chan et al.'s parallel update).
+  variance of every observation seen while training (SB3's own ``RunningMeanStd``).
 * Rewards: divided by the running standard deviation of the discounted return
   ``R_t = gamma R_{t-1} + r_t`` (reset at episode ends), then clipped; never centred.
 
->>> rms = RunningMeanStd(shape=(1,))
->>> rms.update(np.array([[1.0], [3.0]]))
->>> round(float(rms.mean[0]), 4), round(float(rms.var[0]), 4)   # the count starts at 1e-4
-(1.9999, 1.0002)
+>>> norm = Normalizer(1, 1, gamma=0.99, obs=True, reward=False, clip=10.0)
+>>> norm.update_obs(np.array([[1.0], [3.0]]))
+>>> norm.obs_numpy(np.array([[3.0]], dtype=np.float32)).round(3).tolist()   # (3 - ~2) / ~1
+[[1.0]]
 """
 
 from __future__ import annotations
@@ -19,57 +19,25 @@ from typing import Any
 
 import numpy as np
 import torch
+from stable_baselines3.common.running_mean_std import RunningMeanStd
 
 EPSILON = 1e-8
 
 
-class RunningMeanStd:
-    """Mean and variance of a stream of batches (``VecNormalize``'s statistics)."""
-
-    def __init__(self, shape: tuple[int, ...], epsilon: float = 1e-4):
-        self.mean = np.zeros(shape, dtype=np.float64)
-        self.var = np.ones(shape, dtype=np.float64)
-        self.count = float(epsilon)
-
-    def update(self, batch: np.ndarray) -> None:
-        batch = np.asarray(batch, dtype=np.float64)
-        self.mean, self.var, self.count = combine_moments(
-            self.mean, self.var, self.count, batch.mean(axis=0), batch.var(axis=0), len(batch)
-        )
-
-    def state(self) -> dict[str, Any]:
-        """Tensors and a float: a checkpoint of them loads with ``weights_only=True``."""
-        return {
-            "mean": torch.from_numpy(np.array(self.mean)),
-            "var": torch.from_numpy(np.array(self.var)),
-            "count": self.count,
-        }
-
-    def set_state(self, state: dict[str, Any]) -> None:
-        self.mean = np.asarray(state["mean"], dtype=np.float64).copy()
-        self.var = np.asarray(state["var"], dtype=np.float64).copy()
-        self.count = float(state["count"])
+def rms_state(rms: RunningMeanStd) -> dict[str, Any]:
+    """SB3 ``RunningMeanStd`` statistics as tensors and a float: a checkpoint of them loads
+    with ``weights_only=True``."""
+    return {
+        "mean": torch.from_numpy(np.array(rms.mean)),
+        "var": torch.from_numpy(np.array(rms.var)),
+        "count": float(rms.count),
+    }
 
 
-def combine_moments(
-    mean: np.ndarray,
-    var: np.ndarray,
-    count: float,
-    batch_mean: np.ndarray,
-    batch_var: np.ndarray,
-    batch_count: int,
-) -> tuple[np.ndarray, np.ndarray, float]:
-    """Mean, variance and count of two samples pooled (Chan et al. 1979).
-
-    >>> m, v, n = combine_moments(np.array(0.0), np.array(1.0), 2, np.array(2.0), np.array(1.0), 2)
-    >>> float(m), float(v), n     # samples -1, 1, 1, 3
-    (1.0, 2.0, 4)
-    """
-    delta = batch_mean - mean
-    total = count + batch_count
-    new_mean = mean + delta * batch_count / total
-    m2 = var * count + batch_var * batch_count + delta**2 * count * batch_count / total
-    return new_mean, m2 / total, total
+def set_rms_state(rms: RunningMeanStd, state: dict[str, Any]) -> None:
+    rms.mean = np.asarray(state["mean"], dtype=np.float64).copy()
+    rms.var = np.asarray(state["var"], dtype=np.float64).copy()
+    rms.count = float(state["count"])
 
 
 class Normalizer:
@@ -80,8 +48,8 @@ class Normalizer:
     ):
         self.normalize_obs, self.normalize_reward, self.clip = obs, reward, float(clip)
         self.gamma = float(gamma)
-        self.obs_rms = RunningMeanStd((obs_dim,))
-        self.ret_rms = RunningMeanStd(())
+        self.obs_rms = RunningMeanStd(shape=(obs_dim,))
+        self.ret_rms = RunningMeanStd(shape=())
         self.returns = np.zeros(n_envs, dtype=np.float64)
         self._refresh()
 
@@ -119,13 +87,13 @@ class Normalizer:
 
     def state(self) -> dict[str, Any]:
         return {
-            "obs_rms": self.obs_rms.state(),
-            "ret_rms": self.ret_rms.state(),
+            "obs_rms": rms_state(self.obs_rms),
+            "ret_rms": rms_state(self.ret_rms),
             "returns": torch.from_numpy(self.returns.copy()),
         }
 
     def set_state(self, state: dict[str, Any]) -> None:
-        self.obs_rms.set_state(state["obs_rms"])
-        self.ret_rms.set_state(state["ret_rms"])
+        set_rms_state(self.obs_rms, state["obs_rms"])
+        set_rms_state(self.ret_rms, state["ret_rms"])
         self.returns = np.asarray(state["returns"], dtype=np.float64).copy()
         self._refresh()

@@ -349,9 +349,18 @@ class TLAC(SB3Compat, TLACPersistence):
 
     def _act_heads(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Acting pass: the same four heads as :meth:`_heads`, in NumPy, without autograd."""
+        return self._act_heads_net(self._net_input(obs))
+
+    def _net_input(self, obs: np.ndarray) -> np.ndarray:
+        """Raw observations -> what the networks see: ``(n, obs_dim)`` float32, normalised
+        with the current statistics when normalize_obs is on."""
         x = np.asarray(obs, dtype=np.float32).reshape(-1, self.obs_dim)
-        if self.normalizer is not None:
-            x = self.normalizer.obs_numpy(x)
+        return x if self.normalizer is None else self.normalizer.obs_numpy(x)
+
+    def _act_heads_net(
+        self, x: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`_act_heads` from the networks' input (:meth:`_net_input`)."""
         if self.encoder is not None:
             x = self.encoder.numpy(x)
         out, hidden = self.net.forward_numpy(x)
@@ -550,8 +559,10 @@ class TLAC(SB3Compat, TLACPersistence):
             obs = np.asarray(self._last_obs, dtype=np.float32).reshape(E, self.obs_dim)
             if self.normalizer is not None:  # statistics of what the networks see, as VecNormalize
                 self.normalizer.update_obs(obs)
-                ro.net_obs[t] = self.normalizer.obs_numpy(obs)
-            high_logits, low_out, values, latent = self._act_heads(obs)
+            net_obs = self._net_input(obs)
+            if self.normalizer is not None:
+                ro.net_obs[t] = net_obs
+            high_logits, low_out, values, latent = self._act_heads_net(net_obs)
             choices = self.selector.select(high_logits, self._episode_starts)  # line 14
             if self.solo is not None:  # graduate variant: some episodes are the student's alone
                 solo = self.solo.start(self._episode_starts)

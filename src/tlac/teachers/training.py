@@ -303,16 +303,7 @@ def train_teacher(
         "action_low": low.tolist(),
         "action_high": high.tolist(),
         "train_wall_clock_s": round(train_wall, 1),
-        "eval": {
-            "episodes": int(eval_episodes),
-            "seeds": f"{eval_seed}..{eval_seed + eval_episodes - 1}",
-            "mean_return": float(returns.mean()),
-            "std_return": float(returns.std()),
-            "min_return": float(returns.min()),
-            "max_return": float(returns.max()),
-            "mean_length": float(lengths.mean()),
-            "wall_clock_s": round(time.time() - t0, 1),
-        },
+        "eval": _summary(returns, lengths, eval_episodes, eval_seed, time.time() - t0),
         "paper": PAPER_RESULT.get(env_name, "the paper used HopperPyBulletEnv-v0 only"),
         "versions": _versions(),
     }
@@ -428,7 +419,8 @@ def train_ppo_teacher(
         "n_actions": n_actions,
         "train_wall_clock_s": round(float(state.get("wall_s", 0.0)), 1),
         "training_return_last_1000_episodes": monitor_returns,
-        "eval": _summary(returns, lengths, eval_episodes, eval_seed, time.time() - t0),
+        "eval": _summary(returns, lengths, eval_episodes, eval_seed, time.time() - t0)
+        | {"success_rate": float((returns > 0).mean())},
         "eval_sampled": {
             "episodes": int(eval_episodes),
             "mean_return": float(s_returns.mean()),
@@ -461,14 +453,17 @@ class _SampledPolicy:
     def predict(self, obs: np.ndarray) -> np.ndarray:
         import torch
 
+        from tlac.algorithms.nets import np_sample_categorical
+
         with torch.inference_mode():
             logits = self.actor(torch.as_tensor(np.asarray(obs, dtype=np.float32))).numpy()
-        return np.argmax(logits + self.rng.gumbel(size=logits.shape), axis=-1)
+        return np_sample_categorical(logits, self.rng)
 
 
 def _summary(
     returns: np.ndarray, lengths: np.ndarray, episodes: int, seed: int, seconds: float
 ) -> dict[str, Any]:
+    """The ``eval`` block of a teacher's metadata: returns and lengths of its episodes."""
     return {
         "episodes": int(episodes),
         "seeds": f"{seed}..{seed + episodes - 1}",
@@ -476,16 +471,16 @@ def _summary(
         "std_return": float(returns.std()),
         "min_return": float(returns.min()),
         "max_return": float(returns.max()),
-        "success_rate": float((returns > 0).mean()),
         "mean_length": float(lengths.mean()),
         "wall_clock_s": round(seconds, 1),
     }
 
 
 def _monitor_returns(monitor_dir: Path) -> float | None:
-    """Mean return of the last 1000 training episodes in SB3 Monitor files, if any."""
-    rewards: list[float] = []
-    for f in sorted(Path(monitor_dir).glob("*.monitor.csv")):
-        lines = f.read_text().splitlines()[2:]
-        rewards += [float(line.split(",")[0]) for line in lines if line]
-    return float(np.mean(rewards[-1000:])) if rewards else None
+    """Mean return of the last 1000 training episodes, in time order over all the
+    environments' SB3 Monitor files (SB3's ``load_results``), if any."""
+    from stable_baselines3.common.monitor import get_monitor_files, load_results
+
+    if not get_monitor_files(str(monitor_dir)):
+        return None
+    return float(load_results(str(monitor_dir))["r"].tail(1000).mean())
