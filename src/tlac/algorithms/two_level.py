@@ -38,23 +38,12 @@ from tlac.algorithms.common import (
     query_teachers,
     stop_if_not_finite,
 )
-from tlac.algorithms.encoding import make_encoder
 from tlac.algorithms.graduation import AdviceBuffer, SoloEpisodes
 from tlac.algorithms.nets import (
-    CRITIC,
-    HIGH,
     LOW,
-    StackedMLP,
-    categorical_entropy,
-    gaussian_entropy,
-    gaussian_log_prob,
-    gsde_log_std,
-    np_gaussian_log_prob,
-    np_gsde_log_std,
     np_log_softmax,
     np_sample_categorical,
 )
-from tlac.algorithms.normalization import Normalizer
 from tlac.algorithms.rollout import Rollout, compute_gae
 from tlac.algorithms.tlac_config import (  # noqa: F401  (re-exported: the names' old home)
     VARIANT_DEFAULTS,
@@ -63,6 +52,7 @@ from tlac.algorithms.tlac_config import (  # noqa: F401  (re-exported: the names
     domain_preset,
     settings_from_policy_kwargs,
 )
+from tlac.algorithms.tlac_heads import TLACHeads
 from tlac.algorithms.tlac_io import FORMAT, TLACPersistence, as_vec_env  # noqa: F401
 from tlac.errors import ConfigError
 from tlac.presets import load_preset, make_schedule
@@ -84,7 +74,7 @@ def _teacher_label(teacher: Any, index: int) -> str:
     return f"teacher{index}"
 
 
-class TLAC(SB3Compat, TLACPersistence):
+class TLAC(TLACHeads, SB3Compat, TLACPersistence):
     """Two-Level Actor-Critic. ``TLAC(env, teachers, **settings).learn(steps)``.
 
     ``env``: a domain name (``"doorkey"``), a Gymnasium env or an SB3 ``VecEnv``.
@@ -213,63 +203,11 @@ class TLAC(SB3Compat, TLACPersistence):
         self, obs_space: gym.Space, action_space: gym.Space, teacher_names: list[str]
     ) -> None:
         cfg = self.config
-        if not isinstance(obs_space, gym.spaces.Box):
-            raise ConfigError(f"TL-AC needs a Box observation space, got {obs_space}")
-        self.observation_space, self.action_space = obs_space, action_space
         self.teacher_names = list(teacher_names)
         self.n_teachers = len(teacher_names)
         self.n_choices = self.n_teachers + 1  # E = E_0 U {Agent}; the agent is the last index
-        self.obs_dim = int(np.prod(obs_space.shape))
-        self.encoder = make_encoder(cfg.obs_encoding, obs_space)
-        net_in = self.obs_dim if self.encoder is None else self.encoder.out_dim
-        if cfg.normalize_obs and self.encoder is not None:
-            raise ConfigError(
-                "normalize_obs needs raw observations, but obs_encoding "
-                f"{cfg.obs_encoding!r} one-hot encodes this space; set obs_encoding: raw"
-            )
-        self.normalizer: Normalizer | None = None
-        if cfg.normalize_obs or cfg.normalize_reward:
-            self.normalizer = Normalizer(
-                self.obs_dim,
-                getattr(self, "n_envs", 1),
-                cfg.gamma,
-                cfg.normalize_obs,
-                cfg.normalize_reward,
-                cfg.norm_clip,
-            )
-        self.discrete = isinstance(action_space, gym.spaces.Discrete)
-        if self.discrete:
-            low_out = int(action_space.n)
-        elif isinstance(action_space, gym.spaces.Box):
-            low_out = int(np.prod(action_space.shape))
-        else:
-            raise ConfigError(f"TL-AC supports Discrete and Box action spaces, got {action_space}")
-        if cfg.use_sde and self.discrete:
-            raise ConfigError("use_sde applies to Box action spaces only")
-        ortho_critic = (
-            cfg.ortho_init_low if cfg.ortho_init_critic is None else cfg.ortho_init_critic
-        )
-        self.net = StackedMLP(
-            net_in,
-            [list(cfg.net_arch_high), list(cfg.net_arch_low), list(cfg.net_arch_critic)],
-            [self.n_choices, low_out, 1],
-            ortho_init=[cfg.ortho_init_high, cfg.ortho_init_low, ortho_critic],
-            out_gains=[0.01, 0.01, 1.0],  # SB3's gains for action and value heads
-        )
-        params: list[nn.Parameter] = list(self.net.parameters())
-        self.log_std: nn.Parameter | None = None
-        if not self.discrete:
-            shape = (cfg.net_arch_low[-1], low_out) if cfg.use_sde else (low_out,)
-            self.log_std = nn.Parameter(torch.full(shape, float(cfg.log_std_init)))
-            params.append(self.log_std)
-        self.params = params
-        # Box actions: the imitation likelihood's standard deviation per action dimension
-        self._imitation_scale: torch.Tensor | None = None
-        if not self.discrete:
-            half = (action_space.high - action_space.low).astype(np.float64) / 2.0
-            half[~np.isfinite(half) | (half <= 0)] = 1.0  # unbounded boxes: unit scale
-            scale = cfg.imitation_std * half.reshape(-1)
-            self._imitation_scale = torch.as_tensor(scale, dtype=torch.float32)
+        self._build_networks(obs_space, action_space)
+        params = self.params
         lr0 = make_schedule(cfg.learning_rate, "learning_rate")(1.0)
         if cfg.optimizer == "adam":
             self.optimizer: torch.optim.Optimizer = torch.optim.Adam(
@@ -296,7 +234,7 @@ class TLAC(SB3Compat, TLACPersistence):
             self.advice_buffer = AdviceBuffer(
                 cfg.imitation_buffer_size,
                 self.obs_dim,
-                (self.n_teachers,) if self.discrete else (self.n_teachers, low_out),
+                (self.n_teachers,) if self.discrete else (self.n_teachers, self.net.out_dims[LOW]),
                 torch.int64 if self.discrete else torch.float32,
             )
         self._replay_generator = torch.Generator().manual_seed(self.seed + 1)
@@ -321,178 +259,6 @@ class TLAC(SB3Compat, TLACPersistence):
     def check_hyperparameters(cls, hyperparameters: dict[str, Any]) -> TLACConfig:
         """The validated settings (``preset`` aside); a bad one raises ConfigError naming it."""
         return TLACConfig.from_settings({k: v for k, v in hyperparameters.items() if k != "preset"})
-
-    # ----------------------------------------------------------------- the policies
-    def _heads(
-        self, obs: torch.Tensor
-    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
-        """Training pass: (high logits, low output (logits or Gaussian mean), value, low-level
-        last hidden layer), with autograd."""
-        out, hidden = self.net(obs if self.encoder is None else self.encoder.torch(obs))
-        return (
-            out[HIGH, :, : self.n_choices],
-            out[LOW, :, : self.net.out_dims[LOW]],
-            out[CRITIC, :, 0],
-            hidden[LOW, :, : self.config.net_arch_low[-1]],
-        )
-
-    def _replay_heads(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        """What the imitation term needs on replayed states: (high logits without gradient,
-        low output, low-level last hidden layer), computing only those two members."""
-        if self.normalizer is not None:
-            obs = self.normalizer.obs_torch(obs)
-        x = obs if self.encoder is None else self.encoder.torch(obs)
-        with torch.no_grad():
-            high = self.net.forward_member(x, HIGH)[0][:, : self.n_choices]
-        low, hidden = self.net.forward_member(x, LOW)
-        return high, low[:, : self.net.out_dims[LOW]], hidden[:, : self.config.net_arch_low[-1]]
-
-    def _act_heads(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Acting pass: the same four heads as :meth:`_heads`, in NumPy, without autograd."""
-        return self._act_heads_net(self._net_input(obs))
-
-    def _net_input(self, obs: np.ndarray) -> np.ndarray:
-        """Raw observations -> what the networks see: ``(n, obs_dim)`` float32, normalised
-        with the current statistics when normalize_obs is on."""
-        x = np.asarray(obs, dtype=np.float32).reshape(-1, self.obs_dim)
-        return x if self.normalizer is None else self.normalizer.obs_numpy(x)
-
-    def _act_heads_net(
-        self, x: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`_act_heads` from the networks' input (:meth:`_net_input`)."""
-        if self.encoder is not None:
-            x = self.encoder.numpy(x)
-        out, hidden = self.net.forward_numpy(x)
-        return (
-            out[HIGH, :, : self.n_choices],
-            out[LOW, :, : self.net.out_dims[LOW]],
-            out[CRITIC, :, 0],
-            hidden[LOW, :, : self.config.net_arch_low[-1]],
-        )
-
-    def _low_log_std(self, latent: torch.Tensor) -> torch.Tensor:
-        assert self.log_std is not None
-        if self.config.use_sde:
-            return gsde_log_std(latent, self.log_std)
-        return self.log_std.expand(latent.shape[0], -1)
-
-    def _np_low_log_std(self, latent: np.ndarray) -> np.ndarray:
-        log_std = self.log_std.detach().numpy()  # type: ignore[union-attr]
-        if self.config.use_sde:
-            return np_gsde_log_std(latent, log_std)
-        return np.broadcast_to(log_std, (latent.shape[0], log_std.shape[-1]))
-
-    def _low_log_prob(
-        self, low_out: torch.Tensor, latent: torch.Tensor, actions: torch.Tensor
-    ) -> torch.Tensor:
-        """log pi_low(actions|s) per row (training pass)."""
-        if self.discrete:
-            return torch.log_softmax(low_out, dim=-1).gather(1, actions.view(-1, 1)).squeeze(1)
-        return gaussian_log_prob(actions, low_out, self._low_log_std(latent))
-
-    def _advice_on(self, obs: torch.Tensor) -> torch.Tensor:
-        """Every teacher's action in every row of ``obs``: ``(n_teachers, n)`` (discrete) or
-        ``(n_teachers, n, act_dim)`` (Box), each teacher asked once for the whole batch."""
-        raw = obs.numpy().reshape(-1, *self.observation_space.shape)
-        choices = np.zeros(len(raw), dtype=np.int64)
-        out = []
-        for k in range(self.n_teachers):
-            actions = np.zeros(
-                (len(raw), *self.action_space.shape),
-                dtype=np.int64 if self.discrete else np.float32,
-            )
-            choices[:] = k
-            query_teachers(self.teachers, choices, raw, self.action_space, actions)
-            out.append(
-                torch.from_numpy(actions if self.discrete else actions.reshape(len(raw), -1))
-            )
-        return torch.stack(out)
-
-    def _advice_nll(
-        self, low_out: torch.Tensor, latent: torch.Tensor, advice: torch.Tensor
-    ) -> torch.Tensor:
-        """``(n_teachers, B)``: how far pi_low is from each teacher's action in each row. Discrete:
-        ``-log pi_low(a_k|s)``; Box: half the mean squared distance between the low level's mean
-        and the teacher's action, in units of ``imitation_std`` times the action box's
-        half-width: a fixed-variance Gaussian likelihood, so that imitation does not shrink the
-        exploration noise."""
-        if self.discrete:
-            log_p = torch.log_softmax(low_out, -1)
-            return (
-                -log_p.unsqueeze(0)
-                .expand(len(advice), -1, -1)
-                .gather(2, advice.unsqueeze(2))[..., 0]
-            )
-        return losses.scaled_squared_error(low_out, advice, self._imitation_scale)
-
-    def _imitation_term(
-        self,
-        high_logits: torch.Tensor,
-        low_out: torch.Tensor,
-        latent: torch.Tensor,
-        advice: torch.Tensor,
-    ) -> torch.Tensor:
-        """DAgger on replayed states: each teacher's advice weighted by the high level's trust
-        in that teacher (softmax over the teachers' logits only, no gradient)."""
-        trust = losses.teacher_trust(high_logits.detach()[:, : self.n_teachers], self.config.trust)
-        return losses.imitation_loss(self._advice_nll(low_out, latent, advice), trust)
-
-    def _mean_entropies(
-        self,
-        high_logits: torch.Tensor,
-        low_out: torch.Tensor,
-        latent: torch.Tensor,
-        cap_high: float | None = None,
-    ) -> torch.Tensor:
-        """Mean entropy of each trained level: ``[H_low]`` or ``[H_low, H_high]``; with
-        ``cap_high``, each state's high-level entropy counts up to that value only."""
-        if self.discrete:
-            low = categorical_entropy(torch.log_softmax(low_out, -1)).mean()
-        else:
-            low = gaussian_entropy(self._low_log_std(latent)).mean()
-        if not self.train_high:
-            return low[None]
-        high = categorical_entropy(torch.log_softmax(high_logits, -1))
-        if cap_high is not None:
-            high = high.clamp(max=cap_high)
-        return torch.stack([low, high.mean()])
-
-    def _np_low_log_prob(
-        self, low_out: np.ndarray, latent: np.ndarray, actions: np.ndarray
-    ) -> np.ndarray:
-        """log pi_low(actions|s) at collection time (acting pass)."""
-        if self.discrete:
-            return np_log_softmax(low_out)[np.arange(len(actions)), actions]
-        return np_gaussian_log_prob(actions, low_out, self._np_low_log_std(latent))
-
-    def _sample_low(self, low_out: np.ndarray, latent: np.ndarray) -> np.ndarray:
-        """A sample of pi_low(.|s) per row (Algorithm 1, line 16)."""
-        if self.discrete:
-            return np_sample_categorical(low_out, self.rng)
-        if self.config.use_sde:
-            if self._sde_noise is None or len(self._sde_noise) < len(latent):
-                self._resample_sde_noise(len(latent))
-            # one exploration matrix per environment: noise = latent @ eps_matrix
-            return low_out + np.matmul(latent[:, None, :], self._sde_noise[: len(latent)])[:, 0]
-        log_std = self.log_std.detach().numpy()  # type: ignore[union-attr]
-        return low_out + self.rng.standard_normal(low_out.shape).astype(np.float32) * np.exp(
-            log_std
-        )
-
-    def _resample_sde_noise(self, n: int | None = None) -> None:
-        assert self.log_std is not None
-        std = np.exp(self.log_std.detach().numpy())
-        self._sde_noise = (self.rng.standard_normal((n or self.n_envs, *std.shape)) * std).astype(
-            np.float32
-        )
-
-    def _to_env_actions(self, actions: np.ndarray) -> np.ndarray:
-        if self.discrete:
-            return actions
-        # as SB3 does for unsquashed Gaussians: the stored action keeps its sampled value,
-        # the environment receives it clipped to the box
-        return np.clip(actions, self.action_space.low, self.action_space.high)
 
     def predict(
         self,
