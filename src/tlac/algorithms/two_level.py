@@ -54,6 +54,13 @@ from tlac.algorithms.tlac_config import (  # noqa: F401  (re-exported: the names
 )
 from tlac.algorithms.tlac_heads import TLACHeads
 from tlac.algorithms.tlac_io import FORMAT, TLACPersistence, as_vec_env  # noqa: F401
+from tlac.algorithms.tlac_update import (
+    RowWeights,
+    UpdateLog,
+    level_advantages,
+    row_weights,
+    summarize_update,
+)
 from tlac.errors import ConfigError
 from tlac.presets import load_preset, make_schedule
 from tlac.recording import EpisodeRecorder, Recorder, find_episode_recorder
@@ -378,150 +385,118 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
     def update(self, ro: Rollout, progress_remaining: float) -> dict[str, float]:
         """Epochs of minibatch updates of both levels and the shared critic (lines 5-9)."""
         cfg = self.config
-        clip = self.clip_schedule(progress_remaining)
-        lr = self.lr_schedule(progress_remaining)
+        clip, lr = self.clip_schedule(progress_remaining), self.lr_schedule(progress_remaining)
         target_kl = None if self.kl_schedule is None else self.kl_schedule(progress_remaining)
         for group in self.optimizer.param_groups:
             group["lr"] = lr
         data = ro.flat()
         n = data["obs"].shape[0]
-        # both levels' log-probabilities at collection time, stacked: row 0 = low, row 1 = high
-        old_log_probs = torch.stack([data["log_prob_low"], data["log_prob_high"]])[
-            : 2 if self.train_high else 1
-        ]
-        # The approximate KL of the target-KL stop is an expectation under the BEHAVIOUR
-        # policy, so the low level's is estimated on the rows where the agent acted: a
-        # teacher's action is not a sample of pi_low, and its ratio says nothing about how far
-        # pi_low moved (on such rows the KL estimate explodes and would stop every update
-        # after one step). The high level chose on every row.
-        agent_rows = (data["choices"] == self.n_teachers).float()
-        high_rows = 1.0 - data["solo"]  # in a solo episode the high level chose nothing
-        rule = cfg.kl_rows if cfg.kl_rows != "high" or self.advice_buffer else "agent"
-        low_kl_rows = {"agent": agent_rows, "all": torch.ones(n), "high": torch.zeros(n)}[rule]
-        kl_weights = torch.stack([low_kl_rows, high_rows])[: old_log_probs.shape[0]]
-        weights = None
-        if cfg.low_level_data == "agent":  # the low level learns only where the agent acted
-            weights = kl_weights
-        elif self.solo is not None:
-            weights = torch.stack([torch.ones(n), high_rows])[: old_log_probs.shape[0]]
-        # solo_critic False: the critic fits the returns of assisted episodes only
-        critic_rows = None if cfg.solo_critic or self.solo is None else high_rows
+        rows = row_weights(
+            cfg,
+            data,
+            self.n_teachers,
+            self.train_high,
+            self.solo is not None,
+            bool(self.advice_buffer),
+        )
         # graduation (docs/graduation.md): what every teacher advises in every collected state,
         # imitated by the low level in proportion to the high level's trust in that teacher
         distill = self.distill_schedule(progress_remaining)
-        advice = None
-        if self.advice_buffer is not None and distill > 0:
-            advice = self._advice_on(data["obs"])
-            self.advice_buffer.add(data["obs"], advice)
-        # the advice cost: the high level pays for every step a teacher acts (graduate variant)
-        high_adv_shift = cfg.advice_cost * (1.0 - agent_rows) if cfg.advice_cost else None
-        stats: list[torch.Tensor] = []
-        clipped: list[torch.Tensor] = []
-        imitation_stats: list[torch.Tensor] = []
-        stopped_early = imitation_only = False
+        imitates = self.advice_buffer is not None and distill > 0
+        if imitates:
+            self.advice_buffer.add(data["obs"], self._advice_on(data["obs"]))
+        log, imitation_only = UpdateLog(), False
         for _epoch in range(cfg.n_epochs):
             self._n_updates += 1  # epochs begun, as SB3's train/n_updates counts them
             perm = torch.randperm(n, generator=self.generator)
             for start in range(0, n, cfg.batch_size):
                 if imitation_only:  # after the KL stop: the imitation term's steps only
-                    imitation_stats.append(self._imitation_step(distill))
+                    log.imitation.append(self._imitation_step(distill))
                     continue
                 idx = perm[start : start + cfg.batch_size]
-                adv = data["advantages"][idx]
-                if cfg.normalize_advantage:
-                    adv = losses.normalize(adv)
-                if high_adv_shift is not None and self.train_high:
-                    adv = torch.stack([adv, adv - high_adv_shift[idx]])  # per level: (2, B)
-                net_obs = data["obs"] if self.normalizer is None else data["net_obs"]
-                high_logits, low_out, values, latent = self._heads(net_obs[idx])
-                # low level, Eq. 3: log pi_low(a|s) A(s, a) on the EXECUTED actions
-                lp_low = self._low_log_prob(low_out, latent, data["actions"][idx])
-                if self.train_high:
-                    # high level, Eq. 7: log pi_high(e|s) A(s, a), the SAME advantage (Eq. 6)
-                    lp_high = torch.log_softmax(high_logits, -1).gather(
-                        1, data["choices"][idx].view(-1, 1)
-                    )
-                    log_probs = torch.stack([lp_low, lp_high.squeeze(1)])
-                else:
-                    log_probs = lp_low[None]
-                policy_losses, kls = losses.clipped_policy_losses(
-                    log_probs,
-                    old_log_probs[:, idx],
-                    adv,
-                    clip,
-                    None if weights is None else weights[:, idx],
-                    kl_weights[:, idx],
-                )
-                # the one shared critic (Eq. 5)
-                vf_loss = losses.value_loss(
-                    values, data["returns"][idx], None if critic_rows is None else critic_rows[idx]
-                )
-                loss = policy_losses.sum() + cfg.vf_coef * vf_loss
-                if cfg.awr_coef:
-                    level_adv = adv[0] if adv.dim() == 2 else adv
-                    teacher_rows = (data["choices"][idx] < self.n_teachers).float()
-                    loss = loss + cfg.awr_coef * losses.advantage_weighted_nll(
-                        lp_low, level_adv, teacher_rows, cfg.awr_beta
-                    )
-                if advice is not None:
-                    imitation = self._replayed_imitation()
-                    loss = loss + distill * imitation
-                    imitation_stats.append(imitation.detach())
-                if self._use_entropy:  # skipped when both coefficients are 0 (Table 5)
-                    entropies = self._mean_entropies(
-                        high_logits, low_out, latent, cfg.ent_cap_high or None
-                    )
-                    loss = loss - (self._ent_coefs[: len(entropies)] * entropies).sum()
-                kl = float(kls.max())
-                stats.append(torch.cat([policy_losses.detach(), vf_loss.detach()[None], kls]))
-                clipped.append(
-                    losses.clip_fractions(
-                        log_probs,
-                        old_log_probs[:, idx],
-                        clip,
-                        None if weights is None else weights[:, idx],
-                    )
+                loss, kl, heads = self._minibatch_loss(
+                    data, idx, rows, clip, distill if imitates else None, log
                 )
                 if target_kl is not None and kl > 1.5 * target_kl:
-                    stopped_early = True  # SB3's rule: stop before a step that moves too far
-                    if cfg.imitate_after_stop and advice is not None:
+                    log.stopped_early = True  # SB3's rule: stop before a step that moves too far
+                    if cfg.imitate_after_stop and imitates:
                         imitation_only = True
                         continue
                     break
                 self._gradient_step(loss)
-            if stopped_early and not imitation_only:
+            if log.stopped_early and not imitation_only:
                 break
-        levels = ["low", "high"][: old_log_probs.shape[0]]
-        keys = [f"policy_loss_{lv}" for lv in levels] + ["value_loss"]
-        keys += [f"approx_kl_{lv}" for lv in levels]
-        means = torch.stack(stats).mean(0).tolist()
-        out = {f"train/{k}": v for k, v in zip(keys, means, strict=True)}
-        # SB3's names for the same quantities (the low level is the student's policy)
-        fractions = torch.stack(clipped).mean(0).tolist()
-        out["train/clip_fraction"] = fractions[0]
-        if len(fractions) > 1:
-            out["train/clip_fraction_high"] = fractions[1]
+        out = summarize_update(log, rows.old_log_probs.shape[0])
         out["train/explained_variance"] = losses.explained_variance(data["values"], data["returns"])
         out["train/n_updates"] = self._n_updates
         with torch.no_grad():  # entropies of the last minibatch, for the logs
-            for lv, h in zip(
-                levels, self._mean_entropies(high_logits, low_out, latent).tolist(), strict=True
-            ):
+            for lv, h in zip(["low", "high"], self._mean_entropies(*heads).tolist(), strict=False):
                 out[f"train/entropy_{lv}"] = h
         if self.solo is not None:
             out["train/solo_probability"] = self.solo.probability
             out["train/competence"] = self.solo.competence
-        if imitation_stats:
-            out["train/imitation_loss"] = float(torch.stack(imitation_stats).mean())
+        if log.imitation:
+            out["train/imitation_loss"] = float(torch.stack(log.imitation).mean())
             out["train/distill_coef"] = distill
         out.update(
             {
                 "train/learning_rate": lr,
                 "train/clip_range": clip,
-                "train/stopped_early": float(stopped_early),
+                "train/stopped_early": float(log.stopped_early),
             }
         )
         return out
+
+    def _minibatch_loss(
+        self,
+        data: dict[str, torch.Tensor],
+        idx: torch.Tensor,
+        rows: RowWeights,
+        clip: float,
+        distill: float | None,
+        log: UpdateLog,
+    ) -> tuple[torch.Tensor, float, tuple[torch.Tensor, torch.Tensor, torch.Tensor]]:
+        """One minibatch's loss (both levels' clipped surrogates, the critic's error, and the
+        graduate variant's terms), its largest approximate KL, and the heads it used."""
+        cfg = self.config
+        adv = level_advantages(
+            data["advantages"][idx],
+            cfg.normalize_advantage,
+            None
+            if rows.high_adv_shift is None or not self.train_high
+            else rows.high_adv_shift[idx],
+        )
+        net_obs = data["obs"] if self.normalizer is None else data["net_obs"]
+        high_logits, low_out, values, latent = self._heads(net_obs[idx])
+        # low level, Eq. 3: log pi_low(a|s) A(s, a) on the EXECUTED actions
+        lp_low = self._low_log_prob(low_out, latent, data["actions"][idx])
+        log_probs = lp_low[None]
+        if self.train_high:  # high level, Eq. 7: log pi_high(e|s) A(s, a), the SAME advantage
+            lp_high = torch.log_softmax(high_logits, -1).gather(1, data["choices"][idx].view(-1, 1))
+            log_probs = torch.stack([lp_low, lp_high.squeeze(1)])
+        old = rows.old_log_probs[:, idx]
+        weights = None if rows.loss is None else rows.loss[:, idx]
+        policy_losses, kls = losses.clipped_policy_losses(
+            log_probs, old, adv, clip, weights, rows.kl[:, idx]
+        )
+        critic_rows = None if rows.critic is None else rows.critic[idx]
+        vf_loss = losses.value_loss(values, data["returns"][idx], critic_rows)  # Eq. 5
+        loss = policy_losses.sum() + cfg.vf_coef * vf_loss
+        if cfg.awr_coef:
+            teacher_rows = (data["choices"][idx] < self.n_teachers).float()
+            loss = loss + cfg.awr_coef * losses.advantage_weighted_nll(
+                lp_low, adv[0] if adv.dim() == 2 else adv, teacher_rows, cfg.awr_beta
+            )
+        if distill is not None:
+            imitation = self._replayed_imitation()
+            loss = loss + distill * imitation
+            log.imitation.append(imitation.detach())
+        if self._use_entropy:  # skipped when both coefficients are 0 (Table 5)
+            entropies = self._mean_entropies(high_logits, low_out, latent, cfg.ent_cap_high or None)
+            loss = loss - (self._ent_coefs[: len(entropies)] * entropies).sum()
+        log.losses_and_kls.append(torch.cat([policy_losses.detach(), vf_loss.detach()[None], kls]))
+        log.clip_fractions.append(losses.clip_fractions(log_probs, old, clip, weights))
+        return loss, float(kls.max()), (high_logits, low_out, latent)
 
     def _gradient_step(self, loss: torch.Tensor) -> None:
         self.optimizer.zero_grad(set_to_none=True)

@@ -1,0 +1,122 @@
+"""The pieces of TL-AC's update that need no network: which rows each level learns from and
+estimates its KL on (:func:`row_weights`), the statistics gathered over the minibatches
+(:class:`UpdateLog`), and the logged summary of an update (:func:`summarize_update`).
+:meth:`tlac.algorithms.two_level.TLAC.update` composes them with the losses."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import torch
+
+from tlac.algorithms import losses
+from tlac.algorithms.tlac_config import TLACConfig
+
+
+@dataclass(frozen=True)
+class RowWeights:
+    """Per level (row 0 the low level, row 1 the high level when it is trained) and per sample
+    of the rollout: what each level's loss, KL estimate and the critic count."""
+
+    old_log_probs: torch.Tensor
+    """``(levels, n)``: log pi_low(a|s) and log pi_high(e|s) at collection time."""
+    kl: torch.Tensor
+    """``(levels, n)`` 0/1: the rows of each level's approximate KL (the target-KL stop)."""
+    loss: torch.Tensor | None
+    """``(levels, n)`` 0/1: the rows of each level's policy loss; None: every row."""
+    critic: torch.Tensor | None
+    """``(n,)`` 0/1: the critic's rows; None: every row."""
+    high_adv_shift: torch.Tensor | None
+    """``(n,)``: the advice cost subtracted from the high level's advantage; None: no cost."""
+
+
+def row_weights(
+    cfg: TLACConfig,
+    data: dict[str, torch.Tensor],
+    n_teachers: int,
+    train_high: bool,
+    solo: bool,
+    imitates: bool,
+) -> RowWeights:
+    """The rows of an update (``data``: the flat rollout). ``solo``: some episodes are the
+    student's alone (no high-level choice in them); ``imitates``: the low level has an
+    imitation term (``kl_rows: high`` means the agent's rows only without one).
+
+    >>> cfg = TLACConfig.from_settings({"variant": "paper"})
+    >>> data = {"log_prob_low": torch.zeros(3), "log_prob_high": torch.ones(3),
+    ...         "choices": torch.tensor([0, 1, 1]), "solo": torch.zeros(3)}
+    >>> rows = row_weights(cfg, data, 1, True, False, False)
+    >>> rows.old_log_probs.tolist(), rows.kl.tolist(), rows.loss
+    ([[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]], [[1.0, 1.0, 1.0], [1.0, 1.0, 1.0]], None)
+    """
+    n = data["choices"].shape[0]
+    levels = 2 if train_high else 1
+    old_log_probs = torch.stack([data["log_prob_low"], data["log_prob_high"]])[:levels]
+    # The approximate KL of the target-KL stop is an expectation under the BEHAVIOUR policy:
+    # with kl_rows "agent", the low level's is estimated on the rows where the agent acted (a
+    # teacher's action is not a sample of pi_low; docs/reproduction.md, "The target-KL rule");
+    # "all": every row, as an implementation on SB3's PPO computes it. The high level chose
+    # on every row outside the student's solo episodes.
+    agent_rows = (data["choices"] == n_teachers).float()
+    high_rows = 1.0 - data["solo"]
+    rule = cfg.kl_rows if cfg.kl_rows != "high" or imitates else "agent"
+    low_kl_rows = {"agent": agent_rows, "all": torch.ones(n), "high": torch.zeros(n)}[rule]
+    kl = torch.stack([low_kl_rows, high_rows])[:levels]
+    loss = None
+    if cfg.low_level_data == "agent":  # the low level learns only where the agent acted
+        loss = kl
+    elif solo:
+        loss = torch.stack([torch.ones(n), high_rows])[:levels]
+    # solo_critic False: the critic fits the returns of assisted episodes only
+    critic = None if cfg.solo_critic or not solo else high_rows
+    # the advice cost: the high level pays for every step a teacher acts (graduate variant)
+    shift = cfg.advice_cost * (1.0 - agent_rows) if cfg.advice_cost else None
+    return RowWeights(old_log_probs, kl, loss, critic, shift)
+
+
+@dataclass
+class UpdateLog:
+    """What one update gathers over its minibatches for the logs."""
+
+    losses_and_kls: list[torch.Tensor] = field(default_factory=list)
+    """Per minibatch: [policy loss per level, value loss, approximate KL per level]."""
+    clip_fractions: list[torch.Tensor] = field(default_factory=list)
+    imitation: list[torch.Tensor] = field(default_factory=list)
+    stopped_early: bool = False
+
+
+def summarize_update(log: UpdateLog, levels: int) -> dict[str, float]:
+    """The means over an update's minibatches of the losses, KLs and clip fractions, under
+    SB3's names where SB3 has one (the low level is the student's policy).
+
+    >>> log = UpdateLog([torch.tensor([1.0, 2.0, 0.1]), torch.tensor([3.0, 4.0, 0.3])],
+    ...                 [torch.tensor([0.5])])
+    >>> summary = summarize_update(log, 1)
+    >>> summary["train/policy_loss_low"], summary["train/value_loss"], summary["train/clip_fraction"]
+    (2.0, 3.0, 0.5)
+    """
+    names = ["low", "high"][:levels]
+    keys = [f"policy_loss_{lv}" for lv in names] + ["value_loss"]
+    keys += [f"approx_kl_{lv}" for lv in names]
+    means = torch.stack(log.losses_and_kls).mean(0).tolist()
+    out = {f"train/{k}": v for k, v in zip(keys, means, strict=True)}
+    fractions = torch.stack(log.clip_fractions).mean(0).tolist()
+    out["train/clip_fraction"] = fractions[0]
+    if len(fractions) > 1:
+        out["train/clip_fraction_high"] = fractions[1]
+    return out
+
+
+def level_advantages(
+    advantages: torch.Tensor, normalize: bool, high_shift: torch.Tensor | None
+) -> torch.Tensor:
+    """A minibatch's advantages: ``(B,)``, one for both levels (Eq. 6), or ``(2, B)`` when the
+    high level pays an advice cost (its row shifted down by ``high_shift``).
+
+    >>> level_advantages(torch.tensor([1.0, 3.0]), True, None).tolist()
+    [-0.7071067690849304, 0.7071067690849304]
+    >>> level_advantages(torch.tensor([1.0, 3.0]), False, torch.tensor([0.5, 0.0])).tolist()
+    [[1.0, 3.0], [0.5, 3.0]]
+    """
+    adv = losses.normalize(advantages) if normalize else advantages
+    return adv if high_shift is None else torch.stack([adv, adv - high_shift])
