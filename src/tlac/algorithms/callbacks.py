@@ -20,10 +20,11 @@ state, episode_start, deterministic)`` and ``save(path)``.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 from stable_baselines3.common.callbacks import BaseCallback
-from stable_baselines3.common.logger import Logger
+from stable_baselines3.common.logger import Logger, configure
 
 from tlac.errors import ConfigError
 
@@ -33,6 +34,9 @@ class SB3Compat:
 
     env: Any
     _sb3_logger: Logger | None = None
+    verbose = 0
+    tensorboard_log: str | None = None
+    _tb_configured: bool = False
 
     def get_env(self) -> Any:
         """The training environments (SB3's name)."""
@@ -55,6 +59,41 @@ class SB3Compat:
         """Use ``logger`` (for example ``stable_baselines3.common.logger.configure(...)``) for
         what SB3 callbacks record."""
         self._sb3_logger = logger
+
+    def _sb3_output(self) -> bool:
+        """Whether ``learn`` writes its scalars to the SB3 logger (``verbose`` or
+        ``tensorboard_log``); configures that logger on first use, a TensorBoard run in the
+        next free ``TLAC_<n>`` folder."""
+        if self.tensorboard_log is not None and not self._tb_configured:
+            folder = Path(self.tensorboard_log)
+            n = 1 + sum(1 for p in folder.glob("TLAC_*")) if folder.exists() else 1
+            formats = ["tensorboard"] + (["stdout"] if self.verbose else [])
+            self.set_logger(configure(str(folder / f"TLAC_{n}"), formats))
+            self._tb_configured = True
+        elif self.verbose and self._sb3_logger is None:
+            self.set_logger(configure(None, ["stdout"]))
+        return bool(self.verbose or self.tensorboard_log is not None)
+
+
+def check_sb3_arguments(
+    verbose: Any, tensorboard_log: Any, device: Any, torch_threads: Any
+) -> None:
+    """SB3's constructor arguments as tlac accepts them; a bad one raises ConfigError."""
+    if verbose not in (0, 1, 2) or isinstance(verbose, bool):
+        raise ConfigError(f"verbose must be 0, 1 or 2 (as in SB3), got {verbose!r}")
+    if tensorboard_log is not None and not isinstance(tensorboard_log, str | Path):
+        raise ConfigError(f"tensorboard_log must be a folder path or None, got {tensorboard_log!r}")
+    if device not in ("auto", "cpu"):
+        raise ConfigError(
+            f"device {device!r}: tlac runs on the CPU ('auto' or 'cpu'); its networks are "
+            "small and acting runs in NumPy, where a GPU would only add transfers"
+        )
+    if torch_threads is not None and (
+        not isinstance(torch_threads, int) or isinstance(torch_threads, bool) or torch_threads < 1
+    ):
+        raise ConfigError(
+            f"torch_threads must be a positive integer or None, got {torch_threads!r}"
+        )
 
 
 def split_callbacks(callback: Any) -> tuple[list[Any], list[BaseCallback]]:

@@ -1,12 +1,14 @@
 """TL-AC's networks and what is computed from them (a mixin of
 :class:`tlac.algorithms.two_level.TLAC`): the stacked high-level actor, low-level actor and
 critic; their forward passes with autograd (training) and in NumPy (acting); the low level's
-log-probabilities, entropies and samples; and the imitation term's likelihood of every
-teacher's advice. The algorithm itself (collect, update, learn) is in two_level.py."""
+log-probabilities, entropies and samples; the imitation term's likelihood of every teacher's
+advice; and the two ways to act: :meth:`TLACHeads.predict`, the student alone (what a user
+deploys), and :meth:`TLACHeads.predict_with_teachers`, the training-time behaviour. The
+algorithm itself (collect, update, learn) is in two_level.py."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
@@ -14,7 +16,7 @@ import torch
 from torch import nn
 
 from tlac.algorithms import losses
-from tlac.algorithms.common import query_teachers
+from tlac.algorithms.common import check_observations, query_teachers
 from tlac.algorithms.encoding import make_encoder
 from tlac.algorithms.nets import (
     CRITIC,
@@ -279,3 +281,50 @@ class TLACHeads:
         # as SB3 does for unsquashed Gaussians: the stored action keeps its sampled value,
         # the environment receives it clipped to the box
         return np.clip(actions, self.action_space.low, self.action_space.high)
+
+    def predict(
+        self,
+        observation: np.ndarray,
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = False,
+    ) -> tuple[np.ndarray, None]:
+        """Actions of the low-level policy alone (no teacher), with SB3's signature and
+        defaults: ``(actions, None)``, sampled unless ``deterministic`` (the greedy student,
+        which tlac's evaluations and targets use); one observation gives one action, a batch
+        ``(n, *obs_shape)`` gives ``n`` actions."""
+        obs, single = check_observations(observation, self.observation_space)
+        _, low_out, _, latent = self._act_heads(obs)
+        if self.discrete:
+            actions = (
+                low_out.argmax(-1) if deterministic else np_sample_categorical(low_out, self.rng)
+            )
+        elif deterministic:
+            actions = low_out
+        else:
+            noise = self.rng.standard_normal(low_out.shape) * np.exp(self._np_low_log_std(latent))
+            actions = low_out + noise.astype(np.float32)
+        env_actions = self._to_env_actions(actions)
+        return (env_actions[0] if single else env_actions), None
+
+    def predict_with_teachers(self, obs: np.ndarray, deterministic: bool = False) -> np.ndarray:
+        """The training-time behaviour: the high level picks a teacher or the agent per row.
+        With ``deterministic`` the high level and the agent take their most likely choice."""
+        if not self.teachers:
+            return self.predict(obs, deterministic=deterministic)[0]
+        obs = check_observations(obs, self.observation_space)[0]
+        high_logits, low_out, _, latent = self._act_heads(obs)
+        choices = self.selector.evaluation_choices(high_logits, deterministic)
+        if deterministic:
+            actions = low_out.argmax(-1) if self.discrete else low_out.copy()
+        else:
+            actions = self._sample_low(low_out, latent)
+        return self._to_env_actions(self._apply_teachers(choices, obs, actions))
+
+    def _apply_teachers(
+        self, choices: np.ndarray, obs: np.ndarray, actions: np.ndarray
+    ) -> np.ndarray:
+        """Replace the agent's action by the chosen teacher's in every row (Algorithm 1, line 18).
+        A teacher is queried only for the rows where it was chosen."""
+        query_teachers(self.teachers, choices, obs, self.action_space, actions)
+        return actions

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -30,19 +29,16 @@ from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
 from torch import nn
 
 from tlac.algorithms import losses
-from tlac.algorithms.callbacks import LearnCallbacks, SB3Compat
+from tlac.algorithms.callbacks import LearnCallbacks, SB3Compat, check_sb3_arguments
 from tlac.algorithms.common import (
-    check_observations,
     check_seed,
     make_progress_bar,
-    query_teachers,
     stop_if_not_finite,
 )
 from tlac.algorithms.graduation import AdviceBuffer, SoloEpisodes
 from tlac.algorithms.nets import (
     LOW,
     np_log_softmax,
-    np_sample_categorical,
 )
 from tlac.algorithms.rollout import Rollout, compute_gae
 from tlac.algorithms.tlac_config import (  # noqa: F401  (re-exported: the names' old home)
@@ -65,20 +61,7 @@ from tlac.errors import ConfigError
 from tlac.presets import load_preset, make_schedule
 from tlac.recording import EpisodeRecorder, Recorder, find_episode_recorder
 from tlac.selectors import Selector, make_selector
-from tlac.teachers.base import Teacher, as_teacher, unique_names
-
-
-def _teacher_label(teacher: Any, index: int) -> str:
-    """A teacher's name for logs and errors: its ``name``, else a function's ``__name__``."""
-    name = getattr(teacher, "name", None)
-    if isinstance(name, str) and name:
-        return name
-    fn_name = getattr(teacher, "__name__", "")
-    if fn_name and fn_name != "<lambda>":
-        return fn_name
-    if hasattr(teacher, "predict"):  # a batched object or an SB3 model: its class
-        return type(teacher).__name__.lower()
-    return f"teacher{index}"
+from tlac.teachers.base import Teacher, as_teacher, teacher_label, unique_names
 
 
 class TLAC(TLACHeads, SB3Compat, TLACPersistence):
@@ -120,7 +103,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         torch_threads: int | None = 1,
         **settings: Any,
     ):
-        self._check_sb3_arguments(verbose, tensorboard_log, device, torch_threads)
+        check_sb3_arguments(verbose, tensorboard_log, device, torch_threads)
         self.verbose, self.tensorboard_log, self.torch_threads = (
             int(verbose),
             tensorboard_log,
@@ -151,46 +134,6 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self.num_timesteps = 0
         self._last_obs: np.ndarray | None = None
 
-    @staticmethod
-    def _check_sb3_arguments(
-        verbose: Any, tensorboard_log: Any, device: Any, torch_threads: Any
-    ) -> None:
-        if verbose not in (0, 1, 2) or isinstance(verbose, bool):
-            raise ConfigError(f"verbose must be 0, 1 or 2 (as in SB3), got {verbose!r}")
-        if tensorboard_log is not None and not isinstance(tensorboard_log, str | Path):
-            raise ConfigError(
-                f"tensorboard_log must be a folder path or None, got {tensorboard_log!r}"
-            )
-        if device not in ("auto", "cpu"):
-            raise ConfigError(
-                f"device {device!r}: tlac runs on the CPU ('auto' or 'cpu'); its networks are "
-                "small and acting runs in NumPy, where a GPU would only add transfers"
-            )
-        if torch_threads is not None and (
-            not isinstance(torch_threads, int)
-            or isinstance(torch_threads, bool)
-            or torch_threads < 1
-        ):
-            raise ConfigError(
-                f"torch_threads must be a positive integer or None, got {torch_threads!r}"
-            )
-
-    def _sb3_output(self) -> bool:
-        """Whether ``learn`` writes its scalars to the SB3 logger (verbose or TensorBoard)."""
-        if self.tensorboard_log is not None and getattr(self, "_tb_configured", None) is None:
-            from stable_baselines3.common.logger import configure
-
-            folder = Path(self.tensorboard_log)
-            n = 1 + sum(1 for p in folder.glob("TLAC_*")) if folder.exists() else 1
-            formats = ["tensorboard"] + (["stdout"] if self.verbose else [])
-            self.set_logger(configure(str(folder / f"TLAC_{n}"), formats))
-            self._tb_configured = True
-        elif self.verbose and self._sb3_logger is None:
-            from stable_baselines3.common.logger import configure
-
-            self.set_logger(configure(None, ["stdout"]))
-        return bool(self.verbose or self.tensorboard_log is not None)
-
     # ----------------------------------------------------------------- construction
     def _make_teachers(self, teachers: Sequence[Any], domain: Any, seed: int) -> list[Teacher]:
         if teachers and all(isinstance(t, str) for t in teachers):
@@ -201,7 +144,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             from tlac.domains import make_teachers
 
             return make_teachers(domain, list(teachers), domain.make_env(), seed)
-        names = unique_names([_teacher_label(t, i) for i, t in enumerate(teachers)])
+        names = unique_names([teacher_label(t, i) for i, t in enumerate(teachers)])
         return [
             as_teacher(t, self.env.action_space, n) for t, n in zip(teachers, names, strict=True)
         ]
@@ -266,53 +209,6 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
     def check_hyperparameters(cls, hyperparameters: dict[str, Any]) -> TLACConfig:
         """The validated settings (``preset`` aside); a bad one raises ConfigError naming it."""
         return TLACConfig.from_settings({k: v for k, v in hyperparameters.items() if k != "preset"})
-
-    def predict(
-        self,
-        observation: np.ndarray,
-        state: Any = None,
-        episode_start: Any = None,
-        deterministic: bool = False,
-    ) -> tuple[np.ndarray, None]:
-        """Actions of the low-level policy alone (no teacher), with SB3's signature and
-        defaults: ``(actions, None)``, sampled unless ``deterministic`` (the greedy student,
-        which tlac's evaluations and targets use); one observation gives one action, a batch
-        ``(n, *obs_shape)`` gives ``n`` actions."""
-        obs, single = check_observations(observation, self.observation_space)
-        _, low_out, _, latent = self._act_heads(obs)
-        if self.discrete:
-            actions = (
-                low_out.argmax(-1) if deterministic else np_sample_categorical(low_out, self.rng)
-            )
-        elif deterministic:
-            actions = low_out
-        else:
-            noise = self.rng.standard_normal(low_out.shape) * np.exp(self._np_low_log_std(latent))
-            actions = low_out + noise.astype(np.float32)
-        env_actions = self._to_env_actions(actions)
-        return (env_actions[0] if single else env_actions), None
-
-    def predict_with_teachers(self, obs: np.ndarray, deterministic: bool = False) -> np.ndarray:
-        """The training-time behaviour: the high level picks a teacher or the agent per row.
-        With ``deterministic`` the high level and the agent take their most likely choice."""
-        if not self.teachers:
-            return self.predict(obs, deterministic=deterministic)[0]
-        obs = check_observations(obs, self.observation_space)[0]
-        high_logits, low_out, _, latent = self._act_heads(obs)
-        choices = self.selector.evaluation_choices(high_logits, deterministic)
-        if deterministic:
-            actions = low_out.argmax(-1) if self.discrete else low_out.copy()
-        else:
-            actions = self._sample_low(low_out, latent)
-        return self._to_env_actions(self._apply_teachers(choices, obs, actions))
-
-    def _apply_teachers(
-        self, choices: np.ndarray, obs: np.ndarray, actions: np.ndarray
-    ) -> np.ndarray:
-        """Replace the agent's action by the chosen teacher's in every row (Algorithm 1, line 18).
-        A teacher is queried only for the rows where it was chosen."""
-        query_teachers(self.teachers, choices, obs, self.action_space, actions)
-        return actions
 
     # ----------------------------------------------------------------- Algorithm 1
     def collect(self) -> Rollout:

@@ -103,6 +103,19 @@ def as_teacher(obj: Any, action_space: gym.Space, name: str | None = None) -> Te
     )
 
 
+def teacher_label(teacher: Any, index: int) -> str:
+    """A teacher's name for logs and errors: its ``name``, else a function's ``__name__``."""
+    name = getattr(teacher, "name", None)
+    if isinstance(name, str) and name:
+        return name
+    fn_name = getattr(teacher, "__name__", "")
+    if fn_name and fn_name != "<lambda>":
+        return fn_name
+    if hasattr(teacher, "predict"):  # a batched object or an SB3 model: its class
+        return type(teacher).__name__.lower()
+    return f"teacher{index}"
+
+
 def unique_names(names: list[str]) -> list[str]:
     """Make teacher names unique for logs: ``[random, random] -> [random_1, random_2]``."""
     counts = {n: names.count(n) for n in names}
