@@ -10,7 +10,7 @@ from gymnasium.utils.env_checker import check_env
 from tlac.domains import get_domain, make_teachers
 from tlac.domains.doorkey.env import make_doorkey_env
 from tlac.domains.doorkey.planner import DoorKeyOptimalTeacher
-from tlac.domains.doorkey.view import partial_view
+from tlac.domains.doorkey.view import partial_view, partial_view_of_grid
 from tlac.errors import TeacherError, UnknownNameError
 
 
@@ -35,6 +35,26 @@ def test_partial_view_equals_minigrid_gen_obs_on_random_and_teacher_states() -> 
             if terminated or truncated:
                 break
     assert compared > 300 and carrying > 50
+
+
+def test_cached_partial_view_equals_a_fresh_computation_and_stays_unshared() -> None:
+    """The cache returns what partial_view_of_grid computes, for repeated states too, and the
+    caller gets its own writable copy."""
+    env, rng = make_doorkey_env(), np.random.default_rng(1)
+    obs, _ = env.reset(seed=3)
+    batch = [obs]
+    for _ in range(40):
+        obs, *_ = env.step(int(rng.integers(6)))
+        batch.append(obs)
+    batch = np.stack(batch + batch[:10])  # ten states seen twice
+    fresh = np.stack(
+        [partial_view_of_grid(o.reshape(7, 7, 3).astype(np.int64)).reshape(-1) for o in batch]
+    )
+    first, again = partial_view(batch), partial_view(batch)
+    np.testing.assert_array_equal(first, fresh)
+    np.testing.assert_array_equal(again, fresh)
+    again[:] = 0  # the caller's copy: the cache is unchanged
+    np.testing.assert_array_equal(partial_view(batch), fresh)
 
 
 def test_partial_domain_is_a_valid_env_and_refuses_full_grid_teachers() -> None:

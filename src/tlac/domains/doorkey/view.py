@@ -24,6 +24,8 @@ is the key, which is carried exactly when no key cell is on the grid.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from minigrid.core.constants import COLOR_TO_IDX, OBJECT_TO_IDX, STATE_TO_IDX
 
@@ -93,6 +95,17 @@ def partial_view_of_grid(grid: np.ndarray) -> np.ndarray:
     return view.astype(np.uint8)
 
 
+@functools.lru_cache(maxsize=1 << 16)
+def _cached_view(grid_bytes: bytes, side: int) -> np.ndarray:
+    """:func:`partial_view_of_grid` of one grid given as its int64 bytes, flattened and
+    read-only. DoorKey 7x7 has a few thousand distinct states, which training visits again and
+    again, so the cache turns ~0.1 ms of Python per observation into a lookup."""
+    grid = np.frombuffer(grid_bytes, dtype=np.int64).reshape(side, side, 3)
+    view = partial_view_of_grid(grid).reshape(-1)
+    view.flags.writeable = False
+    return view
+
+
 def partial_view(obs_batch: np.ndarray) -> np.ndarray:
     """Flattened full-grid observations ``(n, 3 * s * s)`` -> flattened agent views
     ``(n, 147)`` uint8 (``[x, y, channel]`` in C order, as MiniGrid's image)."""
@@ -100,5 +113,5 @@ def partial_view(obs_batch: np.ndarray) -> np.ndarray:
     if obs.ndim == 1:
         obs = obs[None]
     side = round(np.sqrt(obs.shape[1] // 3))
-    grids = np.rint(obs).astype(np.int64).reshape(len(obs), side, side, 3)
-    return np.stack([partial_view_of_grid(g).reshape(-1) for g in grids])
+    grids = np.rint(obs).astype(np.int64).reshape(len(obs), side * side * 3)
+    return np.stack([_cached_view(g.tobytes(), side) for g in grids])
