@@ -1,0 +1,150 @@
+"""Reading an experiment folder back: its config, every run of its grid and the teachers' own
+returns, as one :class:`Experiment`. This is the only reading the report does; the tables
+(:mod:`tlac.experiments.tables`) and figures (:mod:`tlac.experiments.figures`) work on the
+object it returns and touch no file.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from tlac.errors import ConfigError, read_yaml_file
+from tlac.experiments.config import NO_TEACHERS, ExperimentConfig, parse_config
+from tlac.experiments.grid import ERROR_FILE, GridRun, expand_grid, run_dir, run_status
+from tlac.experiments.runner import EXPERIMENT_FILE, TEACHERS_FILE
+from tlac.run import RESULT_FILE
+
+EPISODES_FILE = "episodes.csv"
+EVAL_FILE = "eval.csv"
+USAGE_FILE = "teacher_usage.csv"
+EPISODES_COLUMNS = ["timestep", "return", "length"]
+EVAL_COLUMNS = ["timestep", "mean_return", "std_return", "episodes"]
+USAGE_COLUMNS = ["timestep", "region", "choice", "count", "fraction"]
+
+
+@dataclass
+class RunData:
+    """One run folder of the grid, read back."""
+
+    run: GridRun
+    status: str
+    episodes: pd.DataFrame
+    evals: pd.DataFrame
+    usage: pd.DataFrame
+    result: dict[str, Any] | None
+    error: str | None
+
+
+@dataclass
+class Experiment:
+    """An experiment folder read back: the config, every declared run (finished or not) in
+    grid order, and the teachers' own returns (``teachers.json``; empty when absent).
+
+    The methods are plain queries over these; nothing here reads a file."""
+
+    config: ExperimentConfig
+    runs: list[RunData]
+    teachers: dict[str, Any]
+
+    def finished(self, set_key: str | None = None, algo: str | None = None) -> list[RunData]:
+        """The finished runs, optionally of one teacher set and/or one algorithm entry."""
+        return [
+            d
+            for d in self.runs
+            if d.status == "finished"
+            and (set_key is None or d.run.teacher_set == set_key)
+            and (algo is None or d.run.algo == algo)
+        ]
+
+    def cells(self) -> list[tuple[str, str]]:
+        """The (teacher set, algorithm) pairs that the grid declares, in grid order."""
+        return list(dict.fromkeys((d.run.teacher_set, d.run.algo) for d in self.runs))
+
+    def set_keys(self) -> list[str]:
+        """The config's teacher sets, in config order (the no-advice key is not one)."""
+        return [ts.key for ts in self.config.teacher_sets]
+
+    def algo_order(self) -> list[str]:
+        """Every algorithm entry's key, in config order."""
+        return [a.key for a in self.config.algorithms]
+
+    def advice_algos(self) -> list[str]:
+        """The keys of the algorithm entries that take teachers, in config order."""
+        return [a.key for a in self.config.algorithms if not a.no_advice]
+
+    def baseline_runs(self) -> list[RunData]:
+        """The finished runs of the no-advice baseline (none when the grid has no baseline)."""
+        base = self.config.baseline
+        return self.finished(NO_TEACHERS, base) if base else []
+
+
+def _read_csv(path: Path, columns: list[str], required: bool = False) -> pd.DataFrame:
+    """The CSV at ``path`` (an empty frame when absent or unreadable); with ``required`` (a
+    finished run's files) an unreadable or malformed file is a ConfigError naming it."""
+    df = _try_read_csv(path, columns)
+    if required and df is None:
+        raise ConfigError(
+            f"{str(path)!r} is damaged (expected a CSV with columns {', '.join(columns)}); "
+            "delete its run folder and rerun the grid to redo it"
+        )
+    return pd.DataFrame(columns=columns) if df is None else df
+
+
+def _try_read_csv(path: Path, columns: list[str]) -> pd.DataFrame | None:
+    try:
+        df = pd.read_csv(path)
+    except (OSError, UnicodeDecodeError, pd.errors.EmptyDataError, pd.errors.ParserError):
+        return None
+    missing = [c for c in columns if c not in df.columns]
+    if missing:
+        return None
+    try:
+        df[columns[0]] = pd.to_numeric(df[columns[0]])
+    except (ValueError, TypeError):
+        return None
+    return df
+
+
+def read_run(folder: Path, run: GridRun) -> RunData:
+    """One run folder: its status, its CSVs (empty frames where absent), its ``result.json``
+    when finished and the last line of its ``error.txt`` when failed."""
+    status = run_status(folder)
+    result = json.loads((folder / RESULT_FILE).read_text()) if status == "finished" else None
+    error = None
+    if status == "failed":
+        lines = (folder / ERROR_FILE).read_text().strip().splitlines()
+        error = lines[-1] if lines else "unknown error"
+    return RunData(
+        run=run,
+        status=status,
+        episodes=_read_csv(folder / EPISODES_FILE, EPISODES_COLUMNS, required=status == "finished"),
+        evals=_read_csv(folder / EVAL_FILE, EVAL_COLUMNS),
+        usage=_read_csv(folder / USAGE_FILE, USAGE_COLUMNS),
+        result=result,
+        error=error,
+    )
+
+
+def read_experiment(out_dir: str | Path) -> Experiment:
+    """Read the experiment folder ``out_dir``; a ConfigError when it is not one."""
+    out = Path(out_dir)
+    cfg_path = out / EXPERIMENT_FILE
+    if not cfg_path.exists():
+        raise ConfigError(f"{out}: not an experiment folder ({EXPERIMENT_FILE} is missing)")
+    config = parse_config(read_yaml_file(cfg_path, "experiment file"), str(cfg_path))
+    runs = [read_run(run_dir(out, r), r) for r in expand_grid(config)]
+    teachers_path = out / TEACHERS_FILE
+    teachers = json.loads(teachers_path.read_text()) if teachers_path.exists() else {}
+    return Experiment(config, runs, teachers)
+
+
+def load_experiment(out_dir: str | Path) -> tuple[ExperimentConfig, list[RunData], dict[str, Any]]:
+    """The experiment's config, every run of its grid (finished or not) and the teachers' own
+    returns (``DIR/teachers.json``, empty if absent): :func:`read_experiment` as a tuple."""
+    exp = read_experiment(out_dir)
+    return exp.config, exp.runs, exp.teachers
