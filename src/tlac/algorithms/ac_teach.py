@@ -58,6 +58,7 @@ from tlac.algorithms.off_policy import ReplayBuffer, learn_loop, load_model, sav
 from tlac.errors import ConfigError
 from tlac.recording import Recorder
 from tlac.teachers.base import ask_teacher
+from tlac.validation import Checks
 
 SWITCH_SIGNS = ("paper", "code")
 
@@ -251,8 +252,11 @@ class ACTeachConfig:
     tau: float = 0.001
     """Soft target update per gradient step."""
     gamma: float = 0.99
+    """Discount."""
     batch_size: int = 128
+    """Minibatch size of each gradient step."""
     buffer_size: int = 1_000_000
+    """Replay buffer size (transitions)."""
     cycle_env_steps: int = 200
     """Environment steps collected per cycle ("nb_rollout_steps")."""
     cycle_grad_steps: int = 50
@@ -260,9 +264,13 @@ class ACTeachConfig:
     action_noise_sigma: float = 0.2
     """Gaussian exploration noise on the learner's action, in [-1, 1] units (continuous)."""
     actor_arch: list[int] = field(default_factory=lambda: [64, 64, 64])
+    """Hidden layers of the actor (continuous)."""
     critic_arch: list[int] = field(default_factory=lambda: [64, 64, 64])
+    """Hidden layers of the Bayesian critic."""
     layer_norm: bool = True
+    """LayerNorm after every hidden linear layer of both networks."""
     dropout_keep_prob: float = 0.9
+    """Keep probability of the critic's MC dropout."""
     mc_samples: int = 50
     """Monte-Carlo dropout samples for the loss, the actor loss and the switch statistics."""
     alpha: float = 0.5
@@ -280,6 +288,7 @@ class ACTeachConfig:
     commitment: bool = True
     """Thompson sampling with commitment; ``False`` is the "no commitment" ablation."""
     commitment_threshold: float = 0.6
+    """Confidence needed to switch policy right after a switch (:func:`commitment_threshold`)."""
     commitment_decay: float = 0.99
     """Threshold decay per declined switch; 1.0 is the "no commitment decay" ablation."""
     meta_target: bool = True
@@ -289,10 +298,12 @@ class ACTeachConfig:
     exploration_initial_eps: float = 1.0
     """Discrete adaptation: epsilon of the learner's epsilon-greedy action at the start."""
     exploration_final_eps: float = 0.01
+    """Discrete adaptation: epsilon after ``exploration_fraction`` of training."""
     exploration_fraction: float = 0.1
     """Discrete adaptation: fraction of training over which epsilon decays linearly."""
 
     def __post_init__(self) -> None:
+        check = Checks("ac-teach")
         for name in (
             "batch_size",
             "buffer_size",
@@ -300,28 +311,14 @@ class ACTeachConfig:
             "cycle_grad_steps",
             "mc_samples",
         ):
-            v = getattr(self, name)
-            if not isinstance(v, int) or isinstance(v, bool) or v <= 0:
-                raise ConfigError(f"ac-teach {name} must be a positive integer, got {v!r}")
-        if self.switch_sign not in SWITCH_SIGNS:
-            raise ConfigError(
-                f"ac-teach switch_sign: expected one of {', '.join(SWITCH_SIGNS)}, got {self.switch_sign!r}"
-            )
-        if not 0.0 < self.dropout_keep_prob <= 1.0:
-            raise ConfigError(
-                f"ac-teach dropout_keep_prob must be in (0, 1], got {self.dropout_keep_prob!r}"
-            )
-        if not 0.0 < self.tau <= 1.0:
-            raise ConfigError(f"ac-teach tau must be in (0, 1], got {self.tau!r}")
+            check.positive_int(name, getattr(self, name))
+        check.one_of("switch_sign", self.switch_sign, SWITCH_SIGNS)
+        for name in ("dropout_keep_prob", "tau", "commitment_decay"):
+            check.number(name, getattr(self, name), 0.0, 1.0, open_low=True)
         for name in ("actor_lr", "critic_lr", "alpha", "dropout_tau", "dataset_size"):
-            if getattr(self, name) <= 0:
-                raise ConfigError(f"ac-teach {name} must be positive, got {getattr(self, name)!r}")
-        if not 0.0 < self.commitment_decay <= 1.0:
-            raise ConfigError(
-                f"ac-teach commitment_decay must be in (0, 1], got {self.commitment_decay!r}"
-            )
-        if self.obs_clip is not None and self.obs_clip <= 0:
-            raise ConfigError(f"ac-teach obs_clip must be positive or null, got {self.obs_clip!r}")
+            check.number(name, getattr(self, name), 0.0, open_low=True)
+        if self.obs_clip is not None:
+            check.number("obs_clip", self.obs_clip, 0.0, open_low=True)
 
 
 # --------------------------------------------------------------------------- algorithm

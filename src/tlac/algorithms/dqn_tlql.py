@@ -53,6 +53,7 @@ from tlac.algorithms.common import (
 from tlac.algorithms.off_policy import ReplayBuffer, learn_loop, load_model, save_checkpoint
 from tlac.errors import ConfigError
 from tlac.recording import Recorder
+from tlac.validation import Checks
 
 C = TypeVar("C")
 
@@ -96,10 +97,8 @@ class DQNTLQLConfig:
     """Hidden layers of each Q-network (Table 6: [64, 64] for each level)."""
 
     def __post_init__(self) -> None:
-        if self.optimizer != "adam":
-            raise ConfigError(
-                f"dqn-tlql optimizer: only 'adam' is supported, got {self.optimizer!r}"
-            )
+        check = Checks("dqn-tlql")
+        check.one_of("optimizer", self.optimizer, ["adam"])
         for name in (
             "buffer_size",
             "batch_size",
@@ -107,23 +106,14 @@ class DQNTLQLConfig:
             "gradient_steps",
             "target_update_interval",
         ):
-            v = getattr(self, name)
-            if not isinstance(v, int) or isinstance(v, bool) or v <= 0:
-                raise ConfigError(f"dqn-tlql {name} must be a positive integer, got {v!r}")
-        if self.learning_starts < 0:
-            raise ConfigError(
-                f"dqn-tlql learning_starts must be >= 0, got {self.learning_starts!r}"
-            )
-        if not 0.0 < self.tau <= 1.0:
-            raise ConfigError(f"dqn-tlql tau must be in (0, 1], got {self.tau!r}")
-        if not 0.0 <= self.gamma <= 1.0:
-            raise ConfigError(f"dqn-tlql gamma must be in [0, 1], got {self.gamma!r}")
-        for name in ("exploration_initial_eps", "exploration_final_eps", "exploration_fraction"):
-            v = getattr(self, name)
-            if not 0.0 <= v <= 1.0:
-                raise ConfigError(f"dqn-tlql {name} must be in [0, 1], got {v!r}")
-        if self.learning_rate <= 0 or self.max_grad_norm <= 0:
-            raise ConfigError("dqn-tlql learning_rate and max_grad_norm must be positive")
+            check.positive_int(name, getattr(self, name))
+        check.integer("learning_starts", self.learning_starts, 0)
+        check.number("tau", self.tau, 0.0, 1.0, open_low=True)
+        for name in ("gamma", "exploration_initial_eps", "exploration_final_eps"):
+            check.number(name, getattr(self, name), 0.0, 1.0)
+        check.number("exploration_fraction", self.exploration_fraction, 0.0, 1.0)
+        check.number("learning_rate", self.learning_rate, 0.0, open_low=True)
+        check.number("max_grad_norm", self.max_grad_norm, 0.0, open_low=True)
 
 
 # --------------------------------------------------------------------------- algorithm
