@@ -80,15 +80,21 @@ class TLACConfig:
     choices (0: no cap). None: the variant's (graduate 0.5, paper 0). The graduate variant
     also sets ent_coef_high to 0.03 when the preset leaves it unset (docs/graduation.md)."""
     vf_coef: float = 0.5
+    """Weight of the critic's loss in the update."""
     max_grad_norm: float = 0.5
+    """Gradient-norm clipping of the shared update."""
     gamma: float = 0.99
+    """Discount."""
     gae_lambda: float = 0.85
     """GAE(lambda); 0 gives the paper's one-step advantage (Eq. 2) exactly."""
     normalize_advantage: bool = True
+    """Normalise each minibatch's advantages (as SB3's PPO)."""
     optimizer: str = "rmsprop_tf"
     """rmsprop_tf (SB3's RMSpropTFLike, the paper's) or adam."""
     optimizer_eps: float = 1e-5
+    """Epsilon of the optimizer (rmsprop_tf or adam)."""
     rmsprop_alpha: float = 0.99
+    """Smoothing constant of rmsprop_tf."""
     use_sde: bool = False
     """Generalized state-dependent exploration for Box actions (Tables 8, 10)."""
     sde_sample_freq: int = -1
@@ -96,12 +102,17 @@ class TLACConfig:
     log_std_init: float = 0.0
     """Initial log std of the low level's Gaussian (Box actions)."""
     ortho_init_high: bool = True
+    """Orthogonal initialisation of the high level (SB3's ortho_init)."""
     ortho_init_low: bool = True
+    """Orthogonal initialisation of the low level."""
     ortho_init_critic: bool | None = None
     """None: the same as ortho_init_low (the critic estimates V_pi_low, Eq. 1)."""
     net_arch_high: list[int] = field(default_factory=lambda: [64, 64])
+    """Hidden layers of the high-level actor (all three networks have the same depth)."""
     net_arch_low: list[int] = field(default_factory=lambda: [64, 64])
+    """Hidden layers of the low-level actor (the student)."""
     net_arch_critic: list[int] = field(default_factory=lambda: [64, 64])
+    """Hidden layers of the shared critic."""
     variant: str = "graduate"
     """graduate (the default): the paper's TL-AC plus what makes the student act well ALONE
     (imitation of the teachers the high level trusts, solo episodes, on-policy low-level
