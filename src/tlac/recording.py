@@ -27,6 +27,19 @@ MONITOR_FILE = "monitor.csv"
 (``stable_baselines3.common.monitor.load_results``) read a run folder."""
 
 
+def next_log_step(timestep: int, interval: int) -> int:
+    """The logging clock of every algorithm: the first multiple of ``interval`` after
+    ``timestep``. A learn loop logs its metrics at the first update that reaches this step,
+    then sets the clock again from the step it logged at, so that every algorithm writes
+    ``progress.csv`` on the same grid as the teacher-usage windows, whatever step it starts or
+    resumes from.
+
+    >>> next_log_step(0, 500), next_log_step(499, 500), next_log_step(500, 500), next_log_step(1234, 500)
+    (500, 500, 1000, 1500)
+    """
+    return (timestep // interval + 1) * interval
+
+
 class EpisodeRecorder(VecEnvWrapper):
     """Counts environment steps over all sub-environments and records finished episodes:
     ``path`` (episodes.csv: ``timestep,return,length``) and, beside it, ``monitor.csv``."""
@@ -169,8 +182,9 @@ class Recorder:
 
     def window_end_after(self, timestep: int) -> int:
         """The first multiple of ``log_interval`` after ``timestep``: where the logging window
-        that contains ``timestep`` ends (algorithms log their metrics on the same grid)."""
-        return (timestep // self.log_interval + 1) * self.log_interval
+        that contains ``timestep`` ends (:func:`next_log_step`; the algorithms log their
+        metrics on the same grid)."""
+        return next_log_step(timestep, self.log_interval)
 
     def record_selections(self, timestep: int, choices: np.ndarray, obs: np.ndarray) -> None:
         """Count the high level's choices (ints into ``choice_names``) made in states ``obs``

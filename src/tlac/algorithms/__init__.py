@@ -2,7 +2,8 @@
 
 Every class follows the contract in ``docs/architecture.md``:
 ``Algo(env, teachers, seed, recorder, **hyperparameters)`` with ``learn``, ``predict``,
-``save`` and ``load``. Modules are imported lazily.
+``save`` and ``load`` as :class:`~tlac.algorithms.protocol.Algorithm` states them (a
+``typing.Protocol``, re-exported here). Modules are imported lazily.
 """
 
 from __future__ import annotations
@@ -10,7 +11,10 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+from tlac.algorithms.protocol import Algorithm
 from tlac.errors import UnknownNameError
+
+__all__ = ["ALGORITHMS", "NO_ADVICE", "Algorithm", "algorithm_names", "get_algorithm"]
 
 ALGORITHMS: dict[str, str] = {
     "tlac": "tlac.algorithms.two_level:TLAC",

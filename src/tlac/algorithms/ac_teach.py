@@ -33,7 +33,6 @@ Choices are numbered like every tlac algorithm: teachers ``0..N-1``, the learner
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -45,27 +44,21 @@ import torch.nn.functional as F
 from stable_baselines3.common.vec_env import VecEnv
 from torch import nn
 
-from tlac.algorithms.callbacks import LearnCallbacks, SB3Compat
+from tlac.algorithms.callbacks import SB3Compat
 from tlac.algorithms.common import (
     check_observations,
     check_seed,
     config_from_kwargs,
     flat_obs,
-    linear_epsilon,
-    make_progress_bar,
     polyak_update,
     real_next_obs,
     stop_if_not_finite,
 )
-from tlac.algorithms.off_policy import (
-    ReplayBuffer,
-    load_model,
-    save_checkpoint,
-    schedule_progress,
-)
+from tlac.algorithms.off_policy import ReplayBuffer, learn_loop, load_model, save_checkpoint
 from tlac.errors import ConfigError
 from tlac.recording import Recorder
 from tlac.teachers.base import ask_teacher
+from tlac.validation import Checks
 
 SWITCH_SIGNS = ("paper", "code")
 
@@ -259,8 +252,11 @@ class ACTeachConfig:
     tau: float = 0.001
     """Soft target update per gradient step."""
     gamma: float = 0.99
+    """Discount."""
     batch_size: int = 128
+    """Minibatch size of each gradient step."""
     buffer_size: int = 1_000_000
+    """Replay buffer size (transitions)."""
     cycle_env_steps: int = 200
     """Environment steps collected per cycle ("nb_rollout_steps")."""
     cycle_grad_steps: int = 50
@@ -268,9 +264,13 @@ class ACTeachConfig:
     action_noise_sigma: float = 0.2
     """Gaussian exploration noise on the learner's action, in [-1, 1] units (continuous)."""
     actor_arch: list[int] = field(default_factory=lambda: [64, 64, 64])
+    """Hidden layers of the actor (continuous)."""
     critic_arch: list[int] = field(default_factory=lambda: [64, 64, 64])
+    """Hidden layers of the Bayesian critic."""
     layer_norm: bool = True
+    """LayerNorm after every hidden linear layer of both networks."""
     dropout_keep_prob: float = 0.9
+    """Keep probability of the critic's MC dropout."""
     mc_samples: int = 50
     """Monte-Carlo dropout samples for the loss, the actor loss and the switch statistics."""
     alpha: float = 0.5
@@ -288,6 +288,7 @@ class ACTeachConfig:
     commitment: bool = True
     """Thompson sampling with commitment; ``False`` is the "no commitment" ablation."""
     commitment_threshold: float = 0.6
+    """Confidence needed to switch policy right after a switch (:func:`commitment_threshold`)."""
     commitment_decay: float = 0.99
     """Threshold decay per declined switch; 1.0 is the "no commitment decay" ablation."""
     meta_target: bool = True
@@ -297,10 +298,12 @@ class ACTeachConfig:
     exploration_initial_eps: float = 1.0
     """Discrete adaptation: epsilon of the learner's epsilon-greedy action at the start."""
     exploration_final_eps: float = 0.01
+    """Discrete adaptation: epsilon after ``exploration_fraction`` of training."""
     exploration_fraction: float = 0.1
     """Discrete adaptation: fraction of training over which epsilon decays linearly."""
 
     def __post_init__(self) -> None:
+        check = Checks("ac-teach")
         for name in (
             "batch_size",
             "buffer_size",
@@ -308,28 +311,14 @@ class ACTeachConfig:
             "cycle_grad_steps",
             "mc_samples",
         ):
-            v = getattr(self, name)
-            if not isinstance(v, int) or isinstance(v, bool) or v <= 0:
-                raise ConfigError(f"ac-teach {name} must be a positive integer, got {v!r}")
-        if self.switch_sign not in SWITCH_SIGNS:
-            raise ConfigError(
-                f"ac-teach switch_sign: expected one of {', '.join(SWITCH_SIGNS)}, got {self.switch_sign!r}"
-            )
-        if not 0.0 < self.dropout_keep_prob <= 1.0:
-            raise ConfigError(
-                f"ac-teach dropout_keep_prob must be in (0, 1], got {self.dropout_keep_prob!r}"
-            )
-        if not 0.0 < self.tau <= 1.0:
-            raise ConfigError(f"ac-teach tau must be in (0, 1], got {self.tau!r}")
+            check.positive_int(name, getattr(self, name))
+        check.one_of("switch_sign", self.switch_sign, SWITCH_SIGNS)
+        for name in ("dropout_keep_prob", "tau", "commitment_decay"):
+            check.number(name, getattr(self, name), 0.0, 1.0, open_low=True)
         for name in ("actor_lr", "critic_lr", "alpha", "dropout_tau", "dataset_size"):
-            if getattr(self, name) <= 0:
-                raise ConfigError(f"ac-teach {name} must be positive, got {getattr(self, name)!r}")
-        if not 0.0 < self.commitment_decay <= 1.0:
-            raise ConfigError(
-                f"ac-teach commitment_decay must be in (0, 1], got {self.commitment_decay!r}"
-            )
-        if self.obs_clip is not None and self.obs_clip <= 0:
-            raise ConfigError(f"ac-teach obs_clip must be positive or null, got {self.obs_clip!r}")
+            check.number(name, getattr(self, name), 0.0, open_low=True)
+        if self.obs_clip is not None:
+            check.number("obs_clip", self.obs_clip, 0.0, open_low=True)
 
 
 # --------------------------------------------------------------------------- algorithm
@@ -645,88 +634,77 @@ class ACTeach(SB3Compat):
             )
         if self.buffer is None:
             self.buffer = self.new_buffer()
-        cfg, env, n = self.config, self.env, self.env.num_envs
-        start, end = self.num_timesteps, self.num_timesteps + int(total_timesteps)
-        self._schedule = self._resumed_schedule or (start, int(total_timesteps))
-        self._resumed_schedule = None
         if self._last_obs is None:
+            n = self.env.num_envs
             self._current = np.full(n, -1, dtype=np.int64)
             self._declined = np.zeros(n, dtype=np.int64)
-            self._last_obs = flat_obs(env.reset(), n)
+            self._last_obs = flat_obs(self.env.reset(), n)
             self._teacher_acts = self._teacher_actions(self._last_obs)
         if self._cycle_start is None:
             self._cycle_start = self.num_timesteps
-        if self._next_log is None:
-            self._next_log = self.num_timesteps
-        obs, teacher_acts, t0 = self._last_obs, self._teacher_acts, time.time()
-        bar = make_progress_bar(total_timesteps, "AC-Teach", progress_bar)
-        callbacks = LearnCallbacks(callback, self)
-        while self.num_timesteps < end:
-            progress = schedule_progress(self.num_timesteps, self._schedule)
-            eps = linear_epsilon(
-                progress,
-                cfg.exploration_initial_eps,
-                cfg.exploration_final_eps,
-                cfg.exploration_fraction,
-            )
-            choices, candidates = self._behaviour(obs, teacher_acts, eps)
-            unit_actions = candidates[np.arange(n), choices]
-            env_actions = unit_actions if self.discrete else self._to_env(unit_actions)
-            new_obs, rewards, dones, infos = env.step(env_actions)
-            new_obs = flat_obs(new_obs, n)
-            real_next, terminated = real_next_obs(new_obs, dones, infos)
-            real_next = real_next.reshape(n, -1)
-            new_teacher_acts = self._teacher_actions(new_obs)
-            teacher_next = new_teacher_acts.copy()
-            if dones.any() and self.n_teachers and cfg.meta_target:
-                d = np.flatnonzero(dones)
-                teacher_next[d] = self._teacher_actions(real_next[d])
-            self.buffer.add(
-                obs=obs,
-                next_obs=real_next,
-                action=unit_actions,
-                reward=np.asarray(rewards, np.float32),
-                terminated=terminated,
-                teacher_next=teacher_next,
-            )
-            if self.recorder is not None:
-                self.recorder.record_selections(self.num_timesteps + n, choices, obs)
-            self._current[dones] = -1  # AC-Teach resets the followed policy at each episode start
-            self._declined[dones] = 0
-            obs, teacher_acts = new_obs, new_teacher_acts
-            self._last_obs, self._teacher_acts = obs, teacher_acts
-            self.num_timesteps += n
-            if (
-                self.num_timesteps - self._cycle_start >= cfg.cycle_env_steps
-                or self.num_timesteps >= end
-            ):
-                self._cycle_start = self.num_timesteps
-                if len(self.buffer) >= cfg.batch_size:
-                    step_losses = [self._train_step() for _ in range(cfg.cycle_grad_steps)]
-                    self._losses = {
-                        k: float(np.mean([s[k] for s in step_losses])) for k in step_losses[0]
-                    }
-                if self.recorder is not None and self.num_timesteps >= self._next_log:
-                    fps = (self.num_timesteps - start) / max(time.time() - t0, 1e-9)
-                    self.recorder.record_metrics(
-                        self.num_timesteps,
-                        {
-                            **self._losses,
-                            "rollout/switches": float(self._switches),
-                            "rollout/exploration_rate": eps,
-                            "time/fps": fps,
-                        },
-                    )
-                    self._switches = 0
-                    self._next_log = self.recorder.window_end_after(self.num_timesteps)
-                if bar is not None:
-                    bar.update(min(self.num_timesteps, end) - start - bar.n)
-                if not callbacks.after_update():
-                    break
-        callbacks.end()
-        if bar is not None:
-            bar.close()
+        learn_loop(self, total_timesteps, callback, progress_bar, "AC-Teach")
         return self
+
+    # ---- the learn loop's steps (tlac.algorithms.off_policy.learn_loop)
+    def collect(self, exploration_rate: float) -> None:
+        """One step of the behaviour policy in every environment, stored in the replay buffer
+        with the teachers' advice at the next state."""
+        cfg, env, n = self.config, self.env, self.env.num_envs
+        obs, teacher_acts = self._last_obs, self._teacher_acts
+        assert obs is not None and teacher_acts is not None and self.buffer is not None
+        choices, candidates = self._behaviour(obs, teacher_acts, exploration_rate)
+        unit_actions = candidates[np.arange(n), choices]
+        env_actions = unit_actions if self.discrete else self._to_env(unit_actions)
+        new_obs, rewards, dones, infos = env.step(env_actions)
+        new_obs = flat_obs(new_obs, n)
+        real_next, terminated = real_next_obs(new_obs, dones, infos)
+        real_next = real_next.reshape(n, -1)
+        new_teacher_acts = self._teacher_actions(new_obs)
+        teacher_next = new_teacher_acts.copy()
+        if dones.any() and self.n_teachers and cfg.meta_target:
+            d = np.flatnonzero(dones)
+            teacher_next[d] = self._teacher_actions(real_next[d])
+        self.buffer.add(
+            obs=obs,
+            next_obs=real_next,
+            action=unit_actions,
+            reward=np.asarray(rewards, np.float32),
+            terminated=terminated,
+            teacher_next=teacher_next,
+        )
+        if self.recorder is not None:
+            self.recorder.record_selections(self.num_timesteps + n, choices, obs)
+        assert self._current is not None and self._declined is not None
+        self._current[dones] = -1  # AC-Teach resets the followed policy at each episode start
+        self._declined[dones] = 0
+        self._last_obs, self._teacher_acts = new_obs, new_teacher_acts
+        self.num_timesteps += n
+
+    def update_due(self, end: int) -> bool:
+        """At the end of every cycle of ``cycle_env_steps`` steps, and of the ``learn`` call."""
+        assert self._cycle_start is not None
+        if (
+            self.num_timesteps - self._cycle_start >= self.config.cycle_env_steps
+            or self.num_timesteps >= end
+        ):
+            self._cycle_start = self.num_timesteps
+            return True
+        return False
+
+    def update(self) -> None:
+        """``cycle_grad_steps`` gradient steps, once a batch is stored."""
+        cfg = self.config
+        assert self.buffer is not None
+        if len(self.buffer) >= cfg.batch_size:
+            step_losses = [self._train_step() for _ in range(cfg.cycle_grad_steps)]
+            self._losses = {k: float(np.mean([s[k] for s in step_losses])) for k in step_losses[0]}
+
+    def log_metrics(self) -> dict[str, float]:
+        """The last update's mean losses and the switches since the last log (the counter
+        starts again)."""
+        metrics = {**self._losses, "rollout/switches": float(self._switches)}
+        self._switches = 0
+        return metrics
 
     # ---- inference and persistence
     def predict(

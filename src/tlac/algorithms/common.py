@@ -3,7 +3,6 @@ target networks, and the truncation-aware next observation."""
 
 from __future__ import annotations
 
-import dataclasses
 import warnings
 from pathlib import Path
 from typing import Any, TypeVar
@@ -15,22 +14,22 @@ from torch import nn
 
 from tlac.errors import ConfigError
 from tlac.teachers.base import ask_teacher
+from tlac.validation import (  # noqa: F401  (re-exported: their old home)
+    POSITIVE_SETTINGS,
+    check_plain_numbers,
+    check_setting_types,
+    from_mapping,
+)
 
 C = TypeVar("C")
 
 
 def config_from_kwargs(cls: type[C], algo: str, kwargs: dict[str, Any]) -> C:
-    """Build the frozen config dataclass ``cls`` from preset keys; unknown keys raise
-    :class:`ConfigError` naming the key and listing the accepted ones."""
-    names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    """Build the frozen config dataclass ``cls`` from preset keys (``n_envs``, the run's, is
+    dropped); unknown keys raise :class:`ConfigError` naming the key and listing the accepted
+    ones (:func:`tlac.validation.from_mapping`)."""
     kwargs = {k: v for k, v in kwargs.items() if k != "n_envs"}
-    for key in kwargs:
-        if key not in names:
-            raise ConfigError(
-                f"unknown {algo} hyperparameter {key!r}; expected one of: {', '.join(sorted(names))}"
-            )
-    check_setting_types(cls, kwargs, algo)
-    return cls(**kwargs)
+    return from_mapping(cls, algo, kwargs, noun="hyperparameter", sort_names=True)
 
 
 def mlp(in_dim: int, hidden: list[int] | tuple[int, ...], out_dim: int) -> nn.Sequential:
@@ -214,103 +213,6 @@ def safe_torch_load(path: Path, what: str) -> Any:
     except Exception as exc:  # noqa: BLE001 - every failure of an untrusted file is the same error
         reason = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise ConfigError(f"{str(path)!r} is not a loadable {what} file ({reason[:160]})") from None
-
-
-POSITIVE_SETTINGS = frozenset(
-    {
-        "learning_rate",
-        "actor_lr",
-        "critic_lr",
-        "clip_range",
-        "target_kl",
-        "optimizer_eps",
-    }
-)
-"""Settings that must be > 0 wherever they appear (a number, or a schedule's end points)."""
-
-
-def _type_error(algo: str, name: str, expected: str, value: Any) -> ConfigError:
-    return ConfigError(f"{algo} setting {name} must be {expected}, got {value!r}")
-
-
-def _check_number(algo: str, name: str, value: Any, integer: bool) -> None:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise _type_error(algo, name, "an integer" if integer else "a number", value)
-    if integer and not isinstance(value, int | np.integer):
-        raise _type_error(algo, name, "an integer", value)
-    if not np.isfinite(value):
-        raise _type_error(algo, name, "a finite number", value)
-    if name in POSITIVE_SETTINGS and value <= 0:
-        raise _type_error(algo, name, "> 0", value)
-
-
-def _check_schedule(algo: str, name: str, value: dict[str, Any]) -> None:
-    """``{linear: [start, end]}`` with two finite end points (> 0 where the setting must be)."""
-    points = value.get("linear") if len(value) == 1 else None
-    if not isinstance(points, list | tuple) or len(points) != 2:
-        raise _type_error(algo, name, "a number or {linear: [start, end]}", value)
-    for point in points:
-        _check_number(algo, name, point, integer=False)
-
-
-def check_setting_types(cls: type, values: dict[str, Any], algo: str) -> None:
-    """Check every given setting against the type annotation of the dataclass field of the
-    same name: booleans are ``true``/``false`` (not strings or numbers), integers are whole,
-    numbers are finite (no NaN, no infinity), and the settings of :data:`POSITIVE_SETTINGS`
-    are > 0. Schedules (``{linear: [start, end]}``) have their end points checked. Raises one
-    :class:`ConfigError` naming the setting and what it accepts.
-
-    >>> from dataclasses import dataclass
-    >>> @dataclass
-    ... class C:
-    ...     learning_rate: float = 1e-3
-    ...     normalize: bool = True
-    >>> check_setting_types(C, {"learning_rate": float("nan")}, "demo")
-    Traceback (most recent call last):
-    tlac.errors.ConfigError: demo setting learning_rate must be a finite number, got nan
-    >>> check_setting_types(C, {"normalize": "maybe"}, "demo")
-    Traceback (most recent call last):
-    tlac.errors.ConfigError: demo setting normalize must be true or false, got 'maybe'
-    """
-    import typing
-
-    hints = typing.get_type_hints(cls)
-    for name, value in values.items():
-        hint = hints.get(name)
-        if hint is None:
-            continue
-        text = str(hint)
-        optional = "None" in text
-        if value is None:
-            if not optional:
-                raise _type_error(algo, name, "set (not null)", value)
-            continue
-        if hint is bool or text.startswith("bool"):
-            if not isinstance(value, bool | np.bool_):
-                raise _type_error(algo, name, "true or false", value)
-        elif hint is int or text in ("int", "int | None", "typing.Optional[int]"):
-            _check_number(algo, name, value, integer=True)
-        elif isinstance(value, dict) and "dict" in text:
-            _check_schedule(algo, name, value)
-        elif "float" in text:
-            _check_number(algo, name, value, integer=False)
-        elif "list[int]" in text:
-            if not isinstance(value, list | tuple) or not all(
-                isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in value
-            ):
-                raise _type_error(algo, name, "a list of positive integers", value)
-        elif text.startswith("str") and not isinstance(value, str):
-            raise _type_error(algo, name, "a name (text)", value)
-
-
-def check_plain_numbers(values: dict[str, Any], algo: str) -> None:
-    """For settings without a dataclass (the SB3 baselines): every number is finite, the
-    settings of :data:`POSITIVE_SETTINGS` are > 0, and schedules' end points likewise."""
-    for name, value in values.items():
-        if isinstance(value, dict) and set(value) == {"linear"}:
-            _check_schedule(algo, name, value)
-        elif isinstance(value, int | float) and not isinstance(value, bool):
-            _check_number(algo, name, value, integer=False)
 
 
 def check_observations(obs: Any, space: gym.Space) -> tuple[np.ndarray, bool]:

@@ -26,7 +26,6 @@ Discrete action spaces only; the paper notes DQN-TLQL "does not support continuo
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
@@ -38,14 +37,12 @@ import torch.nn.functional as F
 from stable_baselines3.common.vec_env import VecEnv
 from torch import nn
 
-from tlac.algorithms.callbacks import LearnCallbacks, SB3Compat
+from tlac.algorithms.callbacks import SB3Compat
 from tlac.algorithms.common import (
     check_observations,
     check_seed,
     config_from_kwargs,
     flat_obs,
-    linear_epsilon,
-    make_progress_bar,
     mlp,
     polyak_update,
     query_teachers,
@@ -53,14 +50,10 @@ from tlac.algorithms.common import (
     stop_if_not_finite,
     td_targets,
 )
-from tlac.algorithms.off_policy import (
-    ReplayBuffer,
-    load_model,
-    save_checkpoint,
-    schedule_progress,
-)
+from tlac.algorithms.off_policy import ReplayBuffer, learn_loop, load_model, save_checkpoint
 from tlac.errors import ConfigError
 from tlac.recording import Recorder
+from tlac.validation import Checks
 
 C = TypeVar("C")
 
@@ -104,10 +97,8 @@ class DQNTLQLConfig:
     """Hidden layers of each Q-network (Table 6: [64, 64] for each level)."""
 
     def __post_init__(self) -> None:
-        if self.optimizer != "adam":
-            raise ConfigError(
-                f"dqn-tlql optimizer: only 'adam' is supported, got {self.optimizer!r}"
-            )
+        check = Checks("dqn-tlql")
+        check.one_of("optimizer", self.optimizer, ["adam"])
         for name in (
             "buffer_size",
             "batch_size",
@@ -115,23 +106,14 @@ class DQNTLQLConfig:
             "gradient_steps",
             "target_update_interval",
         ):
-            v = getattr(self, name)
-            if not isinstance(v, int) or isinstance(v, bool) or v <= 0:
-                raise ConfigError(f"dqn-tlql {name} must be a positive integer, got {v!r}")
-        if self.learning_starts < 0:
-            raise ConfigError(
-                f"dqn-tlql learning_starts must be >= 0, got {self.learning_starts!r}"
-            )
-        if not 0.0 < self.tau <= 1.0:
-            raise ConfigError(f"dqn-tlql tau must be in (0, 1], got {self.tau!r}")
-        if not 0.0 <= self.gamma <= 1.0:
-            raise ConfigError(f"dqn-tlql gamma must be in [0, 1], got {self.gamma!r}")
-        for name in ("exploration_initial_eps", "exploration_final_eps", "exploration_fraction"):
-            v = getattr(self, name)
-            if not 0.0 <= v <= 1.0:
-                raise ConfigError(f"dqn-tlql {name} must be in [0, 1], got {v!r}")
-        if self.learning_rate <= 0 or self.max_grad_norm <= 0:
-            raise ConfigError("dqn-tlql learning_rate and max_grad_norm must be positive")
+            check.positive_int(name, getattr(self, name))
+        check.integer("learning_starts", self.learning_starts, 0)
+        check.number("tau", self.tau, 0.0, 1.0, open_low=True)
+        for name in ("gamma", "exploration_initial_eps", "exploration_final_eps"):
+            check.number(name, getattr(self, name), 0.0, 1.0)
+        check.number("exploration_fraction", self.exploration_fraction, 0.0, 1.0)
+        check.number("learning_rate", self.learning_rate, 0.0, open_low=True)
+        check.number("max_grad_norm", self.max_grad_norm, 0.0, open_low=True)
 
 
 # --------------------------------------------------------------------------- algorithm
@@ -293,68 +275,56 @@ class DQNTLQL(SB3Compat):
                 f"dqn-tlql: the model chooses among {self.n_choices - 1} teachers + agent, "
                 f"but {len(self.teachers)} teachers were given"
             )
-        cfg, env, n = self.config, self.env, self.env.num_envs
-        start_steps, end_steps = self.num_timesteps, self.num_timesteps + int(total_timesteps)
-        self._schedule = self._resumed_schedule or (start_steps, int(total_timesteps))
-        self._resumed_schedule = None
         if self._last_obs is None:
-            self._last_obs = flat_obs(env.reset(), n)
+            self._last_obs = flat_obs(self.env.reset(), self.env.num_envs)
         if self._next_target_update is None:
-            self._next_target_update = self.num_timesteps + cfg.target_update_interval
-        if self._next_log is None:
-            self._next_log = self.num_timesteps + (
-                self.recorder.log_interval if self.recorder else 0
-            )
-        obs, t0 = self._last_obs, time.time()
-        bar = make_progress_bar(total_timesteps, "DQN-TLQL", progress_bar)
-        callbacks = LearnCallbacks(callback, self)
-        while self.num_timesteps < end_steps:
-            progress = schedule_progress(self.num_timesteps, self._schedule)
-            eps = linear_epsilon(
-                progress,
-                cfg.exploration_initial_eps,
-                cfg.exploration_final_eps,
-                cfg.exploration_fraction,
-            )
-            choices, actions = self._act(obs, eps)
-            new_obs, rewards, dones, infos = env.step(actions)
-            new_obs = flat_obs(new_obs, n)
-            real_next, terminated = real_next_obs(new_obs, dones, infos)
-            self.buffer.add(
-                obs=obs,
-                next_obs=real_next.reshape(n, -1),
-                choice=choices,
-                action=actions,
-                reward=np.asarray(rewards, np.float32),
-                terminated=terminated,
-            )
-            if self.recorder is not None:
-                self.recorder.record_selections(self.num_timesteps + n, choices, obs)
-            obs = self._last_obs = new_obs
-            self.num_timesteps += n
-            self._vec_steps += 1
-            if self.num_timesteps >= self._next_target_update:  # every target_update_interval
-                polyak_update(self.q_high, self.q_high_target, cfg.tau)
-                polyak_update(self.q_low, self.q_low_target, cfg.tau)
-                self._next_target_update += cfg.target_update_interval
-            if self._vec_steps % cfg.train_freq == 0:
-                if self.num_timesteps >= cfg.learning_starts and len(self.buffer) >= cfg.batch_size:
-                    self._metrics = self._train(cfg.gradient_steps)
-                if self.recorder is not None and self.num_timesteps >= self._next_log:
-                    fps = (self.num_timesteps - start_steps) / max(time.time() - t0, 1e-9)
-                    self.recorder.record_metrics(
-                        self.num_timesteps,
-                        {**self._metrics, "rollout/exploration_rate": eps, "time/fps": fps},
-                    )
-                    self._next_log = self.recorder.window_end_after(self.num_timesteps)
-                if bar is not None:
-                    bar.update(min(self.num_timesteps, end_steps) - start_steps - bar.n)
-                if not callbacks.after_update():
-                    break
-        callbacks.end()
-        if bar is not None:
-            bar.close()
+            self._next_target_update = self.num_timesteps + self.config.target_update_interval
+        learn_loop(self, total_timesteps, callback, progress_bar, "DQN-TLQL")
         return self
+
+    # ---- the learn loop's steps (tlac.algorithms.off_policy.learn_loop)
+    def collect(self, exploration_rate: float) -> None:
+        """One epsilon-greedy step in every environment, stored in the replay buffer; the
+        target networks' Polyak update when its interval has passed."""
+        cfg, env, n = self.config, self.env, self.env.num_envs
+        obs = self._last_obs
+        assert obs is not None
+        choices, actions = self._act(obs, exploration_rate)
+        new_obs, rewards, dones, infos = env.step(actions)
+        new_obs = flat_obs(new_obs, n)
+        real_next, terminated = real_next_obs(new_obs, dones, infos)
+        self.buffer.add(
+            obs=obs,
+            next_obs=real_next.reshape(n, -1),
+            choice=choices,
+            action=actions,
+            reward=np.asarray(rewards, np.float32),
+            terminated=terminated,
+        )
+        if self.recorder is not None:
+            self.recorder.record_selections(self.num_timesteps + n, choices, obs)
+        self._last_obs = new_obs
+        self.num_timesteps += n
+        self._vec_steps += 1
+        if self.num_timesteps >= self._next_target_update:  # every target_update_interval
+            polyak_update(self.q_high, self.q_high_target, cfg.tau)
+            polyak_update(self.q_low, self.q_low_target, cfg.tau)
+            self._next_target_update += cfg.target_update_interval
+
+    def update_due(self, end: int) -> bool:
+        """Every ``train_freq`` vectorised steps."""
+        return self._vec_steps % self.config.train_freq == 0
+
+    def update(self) -> None:
+        """``gradient_steps`` steps on both Q-networks, once ``learning_starts`` steps are
+        taken and a batch is stored."""
+        cfg = self.config
+        if self.num_timesteps >= cfg.learning_starts and len(self.buffer) >= cfg.batch_size:
+            self._metrics = self._train(cfg.gradient_steps)
+
+    def log_metrics(self) -> dict[str, float]:
+        """The last update's mean losses of both levels."""
+        return dict(self._metrics)
 
     # ---- inference and persistence
     def predict(

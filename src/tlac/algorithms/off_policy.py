@@ -1,6 +1,17 @@
-"""Plumbing shared by the off-policy baselines (DQN-TLQL and AC-Teach): one replay buffer, the
-clock of the exploration schedule, and one checkpoint format with an optional training state
-for exact resume.
+"""Plumbing shared by the off-policy baselines (DQN-TLQL and AC-Teach): one replay buffer, one
+learn loop (:func:`learn_loop`) with the clock of the exploration schedule and the logging
+clock, and one checkpoint format with an optional training state for exact resume.
+
+The learn loop is composed, not inherited: each algorithm keeps its own ``learn`` (its checks
+and the start of its loop state) and its own explicit steps, which the loop calls in a fixed
+order (:class:`OffPolicySteps`)::
+
+    while num_timesteps < end:
+        collect(exploration_rate)      # one vectorised step, stored in the replay buffer
+        if update_due(end):
+            update()                   # gradient steps, when enough data is stored
+            log on the clock           # log_metrics() at tlac.recording.next_log_step
+            progress bar, callbacks    # evaluation and checkpoints of tlac.run are callbacks
 
 A checkpoint is ``torch.save`` of plain data and tensors (``torch.load(weights_only=True)``
 reads it; see :func:`tlac.algorithms.common.safe_torch_load`)::
@@ -20,16 +31,20 @@ continues byte-identically (``tests/test_off_policy.py``).
 from __future__ import annotations
 
 import dataclasses
+import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 import torch
 
+from tlac.algorithms.callbacks import LearnCallbacks
 from tlac.algorithms.common import (
     atomic_torch_save,
     check_env_spaces,
     checkpoint_path,
+    linear_epsilon,
+    make_progress_bar,
     safe_torch_load,
     space_from_data,
     space_to_data,
@@ -41,6 +56,7 @@ from tlac.algorithms.resume import (
     vec_env_state,
 )
 from tlac.errors import ConfigError
+from tlac.recording import Recorder, next_log_step
 
 
 class ReplayBuffer:
@@ -112,6 +128,81 @@ def schedule_progress(num_timesteps: int, schedule: tuple[int, int]) -> float:
     """
     origin, horizon = schedule
     return (num_timesteps - origin) / max(1, horizon)
+
+
+class OffPolicySteps(Protocol):
+    """What :func:`learn_loop` asks of an algorithm: its explicit steps, and the loop's clocks
+    as attributes (they are part of the training state, :func:`training_state`)."""
+
+    config: Any  # exploration_initial_eps, exploration_final_eps, exploration_fraction
+    recorder: Recorder | None
+    num_timesteps: int
+    _next_log: int | None  # the logging clock: the step at or after which the next log falls
+    _schedule: tuple[int, int] | None  # the exploration schedule's clock
+    _resumed_schedule: tuple[int, int] | None
+
+    def collect(self, exploration_rate: float) -> None:
+        """Act in every environment once, store the transitions, advance ``num_timesteps``."""
+
+    def update_due(self, end: int) -> bool:
+        """Whether an update follows the step just collected (``end``: the call's last step)."""
+
+    def update(self) -> None:
+        """The gradient steps of one update (none while too little data is stored)."""
+
+    def log_metrics(self) -> dict[str, float]:
+        """The algorithm's own metrics for ``progress.csv`` at a logging step."""
+
+
+def exploration_rate(model: OffPolicySteps) -> float:
+    """Epsilon of the linear exploration schedule at ``model.num_timesteps`` (SB3's DQN
+    schedule, over the steps of the ``learn`` call that set the schedule's clock)."""
+    cfg = model.config
+    assert model._schedule is not None
+    return linear_epsilon(
+        schedule_progress(model.num_timesteps, model._schedule),
+        cfg.exploration_initial_eps,
+        cfg.exploration_final_eps,
+        cfg.exploration_fraction,
+    )
+
+
+def learn_loop(
+    model: OffPolicySteps, total_timesteps: int, callback: Any, progress_bar: bool, desc: str
+) -> None:
+    """Run ``total_timesteps`` environment steps (over all environments) of ``model``'s
+    collect / update steps (see the module docstring). The exploration schedule spans this
+    call, or the interrupted call that a resumed model continues; metrics are logged at the
+    first update at or after :func:`tlac.recording.next_log_step` of the last log (of the
+    first step, for the first log), with the exploration rate and the steps per second;
+    ``callback`` runs after every update (:class:`tlac.algorithms.callbacks.LearnCallbacks`)."""
+    start, end = model.num_timesteps, model.num_timesteps + int(total_timesteps)
+    model._schedule = model._resumed_schedule or (start, int(total_timesteps))
+    model._resumed_schedule = None
+    recorder = model.recorder
+    if recorder is not None and model._next_log is None:
+        model._next_log = next_log_step(start, recorder.log_interval)
+    t0 = time.time()
+    bar = make_progress_bar(total_timesteps, desc, progress_bar)
+    callbacks = LearnCallbacks(callback, model)
+    while model.num_timesteps < end:
+        eps = exploration_rate(model)
+        model.collect(eps)
+        if not model.update_due(end):
+            continue
+        model.update()
+        if recorder is not None and model.num_timesteps >= (model._next_log or 0):
+            fps = (model.num_timesteps - start) / max(time.time() - t0, 1e-9)
+            metrics = {**model.log_metrics(), "rollout/exploration_rate": eps, "time/fps": fps}
+            recorder.record_metrics(model.num_timesteps, metrics)
+            model._next_log = next_log_step(model.num_timesteps, recorder.log_interval)
+        if bar is not None:
+            bar.update(min(model.num_timesteps, end) - start - bar.n)
+        if not callbacks.after_update():
+            break
+    callbacks.end()
+    if bar is not None:
+        bar.close()
 
 
 def _tensor(a: np.ndarray | None) -> torch.Tensor | None:

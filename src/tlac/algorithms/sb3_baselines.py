@@ -309,9 +309,24 @@ class _SB3Baseline:
             }
         return self._obs_stats
 
-    def save(self, path: str | Path) -> Path:
+    exact_resume = False
+    """SB3 saves no training state (generators, environments): ``tlac.run`` redoes an
+    interrupted run of these baselines instead of resuming it."""
+
+    def save(
+        self,
+        path: str | Path,
+        training_state: bool = False,
+        run_state: dict[str, Any] | None = None,
+    ) -> Path:
         """Write ``path`` + ``.zip`` (SB3's format; the optimizer state included) and return
-        that path."""
+        that path. ``training_state`` and ``run_state`` (the contract's, for an exact resume)
+        are refused: SB3's file holds no training state."""
+        if training_state or run_state is not None:
+            raise ConfigError(
+                f"{self.name} cannot save a training state for an exact resume "
+                "(training_state=True or run_state); save(path) writes its weights"
+            )
         p = Path(path)
         stem = p.with_suffix("") if p.suffix == ".zip" else p
         self.model.save(str(stem))
@@ -323,9 +338,21 @@ class _SB3Baseline:
 
     @classmethod
     def load(
-        cls, path: str | Path, env: VecEnv | None = None, teachers: list[Any] | None = None
+        cls,
+        path: str | Path,
+        env: VecEnv | None = None,
+        teachers: list[Any] | None = None,
+        resume: bool = False,
     ) -> _SB3Baseline:
-        """Load a model written by :meth:`save` (``path`` with or without ``.zip``)."""
+        """Load a model written by :meth:`save` (``path`` with or without ``.zip``);
+        ``teachers`` must be empty (a no-advice baseline), and ``resume`` is refused (SB3's
+        file holds no training state)."""
+        if resume:
+            raise ConfigError(
+                f"{cls.name} cannot resume exactly (resume=True): its file holds no training state"
+            )
+        if teachers:
+            raise ConfigError(f"{cls.name} is a no-advice baseline and takes no teachers")
         p = Path(path)
         if p.suffix != ".zip":
             p = p.with_name(p.name + ".zip")

@@ -8,17 +8,16 @@ preset and from SB3's ``policy_kwargs``.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
 from tlac.algorithms import losses
-from tlac.algorithms.common import check_setting_types
 from tlac.algorithms.encoding import ENCODINGS
 from tlac.domains import get_domain
 from tlac.errors import ConfigError, UnknownNameError
 from tlac.presets import load_preset, validate_schedule
 from tlac.selectors import SELECTOR_NAMES
+from tlac.validation import Checks, from_mapping
 
 Schedule = float | dict
 
@@ -51,9 +50,11 @@ VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
 """What each TL-AC variant sets when the corresponding setting is left at None."""
 
 
-@dataclass
+@dataclass(frozen=True)
 class TLACConfig:
-    """TL-AC's settings. Defaults are the paper's DoorKey preset (Table 5)."""
+    """TL-AC's settings. Defaults are the paper's DoorKey preset (Table 5). Frozen and checked
+    when made (``__post_init__``: the variant's defaults, then :meth:`validate`), as every
+    tlac config (:mod:`tlac.validation`)."""
 
     n_steps: int = 16
     """Steps collected per environment before each update (Algorithm 1's minibatch M)."""
@@ -79,15 +80,21 @@ class TLACConfig:
     choices (0: no cap). None: the variant's (graduate 0.5, paper 0). The graduate variant
     also sets ent_coef_high to 0.03 when the preset leaves it unset (docs/graduation.md)."""
     vf_coef: float = 0.5
+    """Weight of the critic's loss in the update."""
     max_grad_norm: float = 0.5
+    """Gradient-norm clipping of the shared update."""
     gamma: float = 0.99
+    """Discount."""
     gae_lambda: float = 0.85
     """GAE(lambda); 0 gives the paper's one-step advantage (Eq. 2) exactly."""
     normalize_advantage: bool = True
+    """Normalise each minibatch's advantages (as SB3's PPO)."""
     optimizer: str = "rmsprop_tf"
     """rmsprop_tf (SB3's RMSpropTFLike, the paper's) or adam."""
     optimizer_eps: float = 1e-5
+    """Epsilon of the optimizer (rmsprop_tf or adam)."""
     rmsprop_alpha: float = 0.99
+    """Smoothing constant of rmsprop_tf."""
     use_sde: bool = False
     """Generalized state-dependent exploration for Box actions (Tables 8, 10)."""
     sde_sample_freq: int = -1
@@ -95,12 +102,17 @@ class TLACConfig:
     log_std_init: float = 0.0
     """Initial log std of the low level's Gaussian (Box actions)."""
     ortho_init_high: bool = True
+    """Orthogonal initialisation of the high level (SB3's ortho_init)."""
     ortho_init_low: bool = True
+    """Orthogonal initialisation of the low level."""
     ortho_init_critic: bool | None = None
     """None: the same as ortho_init_low (the critic estimates V_pi_low, Eq. 1)."""
     net_arch_high: list[int] = field(default_factory=lambda: [64, 64])
+    """Hidden layers of the high-level actor (all three networks have the same depth)."""
     net_arch_low: list[int] = field(default_factory=lambda: [64, 64])
+    """Hidden layers of the low-level actor (the student)."""
     net_arch_critic: list[int] = field(default_factory=lambda: [64, 64])
+    """Hidden layers of the shared critic."""
     variant: str = "graduate"
     """graduate (the default): the paper's TL-AC plus what makes the student act well ALONE
     (imitation of the teachers the high level trusts, solo episodes, on-policy low-level
@@ -196,28 +208,18 @@ class TLACConfig:
             raise UnknownNameError("variant", self.variant, list(VARIANT_DEFAULTS))
         for name, value in VARIANT_DEFAULTS[self.variant].items():
             if getattr(self, name) is None:
-                setattr(self, name, value)
+                object.__setattr__(self, name, value)  # frozen: only while it is being made
+        self.validate()
 
     @classmethod
     def from_settings(cls, settings: dict[str, Any]) -> TLACConfig:
         """Build and validate a config; unknown keys or bad values raise ConfigError."""
-        names = [f.name for f in dataclasses.fields(cls)]
-        for key in settings:
-            if key not in names:
-                raise ConfigError(
-                    f"unknown TL-AC setting {key!r}; expected one of: {', '.join(names)}"
-                )
-        check_setting_types(cls, settings, "TL-AC")
-        cfg = cls(**settings)
-        cfg.validate()
-        return cfg
+        return from_mapping(cls, "TL-AC", settings)
 
     def validate(self) -> None:
-        def positive_int(name: str) -> None:
-            v = getattr(self, name)
-            if not isinstance(v, int) or isinstance(v, bool) or v <= 0:
-                raise ConfigError(f"TL-AC setting {name} must be a positive integer, got {v!r}")
-
+        """Raise ConfigError naming the first setting out of its range (run when the config
+        is made; a frozen config stays valid)."""
+        check = Checks("TL-AC")
         for name in (
             "n_steps",
             "batch_size",
@@ -226,15 +228,13 @@ class TLACConfig:
             "imitation_buffer_size",
             "imitation_batch_size",
         ):
-            positive_int(name)
+            check.positive_int(name, getattr(self, name))
         for name in ("learning_rate", "clip_range", "distill_coef"):
             validate_schedule(name, getattr(self, name))
         if self.target_kl is not None:
             validate_schedule("target_kl", self.target_kl)
         for name in ("gamma", "gae_lambda"):
-            v = getattr(self, name)
-            if not 0.0 <= v <= 1.0:
-                raise ConfigError(f"TL-AC setting {name} must be in [0, 1], got {v!r}")
+            check.number(name, getattr(self, name), 0.0, 1.0)
         for name in (
             "vf_coef",
             "max_grad_norm",
@@ -245,30 +245,19 @@ class TLACConfig:
             "solo_budget",
             "awr_coef",
         ):
-            if getattr(self, name) < 0:
-                raise ConfigError(f"TL-AC setting {name} must be >= 0, got {getattr(self, name)!r}")
-        if self.optimizer not in ("rmsprop_tf", "adam"):
-            raise UnknownNameError("optimizer", self.optimizer, ["rmsprop_tf", "adam"])
-        if self.kl_rows not in ("agent", "all", "high"):
-            raise UnknownNameError("kl_rows", self.kl_rows, ["agent", "all", "high"])
-        if self.obs_encoding not in ENCODINGS:
-            raise UnknownNameError("obs_encoding", self.obs_encoding, list(ENCODINGS))
-        if not self.awr_beta > 0:  # also rejects NaN
-            raise ConfigError(f"TL-AC setting awr_beta must be > 0, got {self.awr_beta!r}")
-        if not self.norm_clip > 0:  # also rejects NaN
-            raise ConfigError(f"TL-AC setting norm_clip must be > 0, got {self.norm_clip!r}")
-        if not self.imitation_std > 0:  # also rejects NaN
-            raise ConfigError(
-                f"TL-AC setting imitation_std must be > 0, got {self.imitation_std!r}"
-            )
-        if self.trust not in losses.TRUST_RULES:
-            raise UnknownNameError("trust", self.trust, list(losses.TRUST_RULES))
-        if self.low_level_data not in ("all", "agent"):
-            raise UnknownNameError("low_level_data", self.low_level_data, ["all", "agent"])
-        if self.vec_env not in ("dummy", "subproc"):
-            raise UnknownNameError("vec_env", self.vec_env, ["dummy", "subproc"])
-        if self.selector not in SELECTOR_NAMES:
-            raise UnknownNameError("selector", self.selector, list(SELECTOR_NAMES))
+            check.number(name, getattr(self, name), 0.0)
+        for name in ("awr_beta", "norm_clip", "imitation_std"):
+            check.number(name, getattr(self, name), 0.0, open_low=True)
+        for name, accepted in (
+            ("optimizer", ["rmsprop_tf", "adam"]),
+            ("kl_rows", ["agent", "all", "high"]),
+            ("obs_encoding", list(ENCODINGS)),
+            ("trust", list(losses.TRUST_RULES)),
+            ("low_level_data", ["all", "agent"]),
+            ("vec_env", ["dummy", "subproc"]),
+            ("selector", list(SELECTOR_NAMES)),
+        ):
+            check.one_of(name, getattr(self, name), accepted)
         depths = {len(self.net_arch_high), len(self.net_arch_low), len(self.net_arch_critic)}
         if len(depths) != 1 or 0 in depths:
             raise ConfigError(

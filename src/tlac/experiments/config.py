@@ -35,6 +35,7 @@ from tlac.domains import domain_names, get_domain
 from tlac.errors import ConfigError, TlacError, read_yaml_file
 from tlac.presets import load_preset, preset_names
 from tlac.run import SELECTORS
+from tlac.validation import Checks
 
 NO_TEACHERS = "none"
 """Teacher-set key of the no-advice runs (``a2c``/``ppo``): they take no teachers."""
@@ -77,6 +78,12 @@ class EvalSchedule:
     episodes: int = 10
     """Episodes per evaluation (0 disables it)."""
 
+    def __post_init__(self) -> None:
+        check = Checks("eval", file=True)
+        if self.every is not None:
+            check.integer("every", self.every, 1)
+        check.integer("episodes", self.episodes, 0)
+
 
 @dataclass(frozen=True)
 class MetricSettings:
@@ -96,6 +103,17 @@ class MetricSettings:
     bootstrap_seed: int = 0
     """Random state of the bootstrap (fixed, so that reports are reproducible)."""
 
+    def __post_init__(self) -> None:
+        check = Checks("metrics", file=True)
+        check.integer("jumpstart_window", self.jumpstart_window, 1)
+        if self.final_window is not None:
+            check.integer("final_window", self.final_window, 1)
+        if self.threshold is not None:
+            check.number("threshold", self.threshold)
+        check.integer("curve_points", self.curve_points, 2)
+        check.integer("bootstrap_reps", self.bootstrap_reps, 1)
+        check.integer("bootstrap_seed", self.bootstrap_seed, 0)
+
 
 @dataclass(frozen=True)
 class TeacherSet:
@@ -104,6 +122,7 @@ class TeacherSet:
     key: str
     """Identifier used in run names and tables (letters, digits, ``. + - _``)."""
     teachers: tuple[str, ...]
+    """The domain's teacher names, in the order the algorithms number them."""
     label: str
     """Human-readable name for tables and plot titles."""
 
@@ -118,8 +137,11 @@ class AlgorithmEntry:
     """Identifier in run names and tables: ``label`` if given, else ``name`` plus
     ``__<selector>`` when TL-AC's high level is not the learned one."""
     preset: str | None = None
+    """Preset to start from (``None``: the domain's preset for this algorithm)."""
     overrides: dict[str, Any] = field(default_factory=dict)
+    """Hyperparameters that replace the preset's (checked by the algorithm before any run)."""
     selector: str = "learned"
+    """TL-AC's high level: learned, random or ucb1 (the Figure 11 ablations)."""
     seeds: tuple[int, ...] | None = None
     """Seeds of this algorithm (``None``: the experiment's); the paper ran AC-Teach on 3."""
     teacher_sets: tuple[str, ...] | None = None
@@ -132,26 +154,48 @@ class AlgorithmEntry:
 
 @dataclass(frozen=True)
 class ExperimentConfig:
-    """A validated experiment file."""
+    """A validated experiment file (:func:`parse_config` checks the fields against the domain
+    and the registries, with the file's name in every message; ``__post_init__`` the rest)."""
 
     name: str
+    """The experiment's name (its grid folder's runs are named after it)."""
     domain: str
+    """A registered domain name, or ``module:attribute`` / ``file.py:attribute``."""
     steps: int
+    """Environment steps of every run."""
     seeds: tuple[int, ...]
+    """Distinct seeds; every (algorithm, teacher set) runs once per seed."""
     teacher_sets: tuple[TeacherSet, ...]
+    """The named teacher sets (none when every algorithm is a no-advice baseline)."""
     algorithms: tuple[AlgorithmEntry, ...]
+    """The algorithms of the grid, with distinct keys."""
     eval: EvalSchedule = EvalSchedule()
+    """When and how long the student alone is evaluated."""
     log_interval: int = 2000
+    """Steps per logging window of ``progress.csv`` and ``teacher_usage.csv``."""
     teacher_eval_episodes: int = 20
     """Episodes to measure each teacher's own return (reference lines in the plots)."""
     baseline: str | None = None
     """Key of the no-advice algorithm that jumpstarts are measured against."""
     metrics: MetricSettings = MetricSettings()
+    """Settings of the report's metrics."""
     description: str = ""
+    """Free text for the report."""
     source: str = ""
     """The file it was loaded from (for messages)."""
     raw: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
     """The YAML mapping as loaded (copied to ``DIR/experiment.yaml``)."""
+
+    def __post_init__(self) -> None:
+        check = Checks(self.source or "<experiment>", file=True)
+        check.integer("steps", self.steps, 1)
+        check.integer("log_interval", self.log_interval, 1)
+        check.integer("teacher_eval_episodes", self.teacher_eval_episodes, 0)
+        if not self.seeds or len(set(self.seeds)) != len(self.seeds):
+            raise check.error("seeds", "a non-empty list of distinct seeds", list(self.seeds))
+        keys = [a.key for a in self.algorithms]
+        if not keys or len(set(keys)) != len(keys):
+            raise check.error("algorithms", "a non-empty list with distinct keys", keys)
 
     def teacher_set(self, key: str) -> TeacherSet:
         for ts in self.teacher_sets:
@@ -166,18 +210,21 @@ class ExperimentConfig:
         raise KeyError(key)
 
 
-class _Fields:
-    """Builds error messages ``<file>: field '<path>': <problem>``."""
+class _Fields(Checks):
+    """The checks of an experiment file (:class:`tlac.validation.Checks`, messages
+    ``<file>: field '<path>': <problem>``) and the shapes only files have: mappings with
+    known keys, slugs, seed lists."""
 
     def __init__(self, source: str):
+        super().__init__(source, file=True)
         self.source = source
 
-    def error(self, path: str, problem: str) -> ConfigError:
+    def problem(self, path: str, problem: str) -> ConfigError:
         return ConfigError(f"{self.source}: field '{path}': {problem}")
 
     def mapping(self, path: str, value: Any, accepted: tuple[str, ...]) -> dict[str, Any]:
         if not isinstance(value, dict):
-            raise self.error(path, f"expected a mapping, got {type(value).__name__} {value!r}")
+            raise self.problem(path, f"expected a mapping, got {type(value).__name__} {value!r}")
         for k in value:
             if k not in accepted:
                 prefix = f"{path}." if path else ""
@@ -187,21 +234,9 @@ class _Fields:
                 )
         return value
 
-    def integer(self, path: str, value: Any, minimum: int) -> int:
-        if isinstance(value, float) and value.is_integer():  # YAML's 5e5 is a float
-            value = int(value)
-        if not isinstance(value, int) or isinstance(value, bool) or value < minimum:
-            raise self.error(path, f"expected an integer >= {minimum}, got {value!r}")
-        return value
-
-    def number(self, path: str, value: Any) -> float:
-        if not isinstance(value, int | float) or isinstance(value, bool):
-            raise self.error(path, f"expected a number, got {value!r}")
-        return float(value)
-
     def slug(self, path: str, value: Any) -> str:
         if not isinstance(value, str) or not _SLUG.match(value):
-            raise self.error(
+            raise self.problem(
                 path,
                 f"expected a name of letters, digits and '. + - _' (no '__', not starting "
                 f"with a symbol), got {value!r}",
@@ -210,14 +245,14 @@ class _Fields:
 
     def string(self, path: str, value: Any) -> str:
         if not isinstance(value, str):
-            raise self.error(path, f"expected a string, got {value!r}")
+            raise self.problem(path, f"expected a string, got {value!r}")
         return value
 
     def choice(
         self, path: str, value: Any, kind: str, accepted: list[str] | tuple[str, ...]
     ) -> str:
         if value not in accepted:
-            raise self.error(
+            raise self.problem(
                 path, f"unknown {kind} {value!r}; expected one of: {', '.join(accepted)}"
             )
         return value
@@ -226,12 +261,12 @@ class _Fields:
         if isinstance(value, int) and not isinstance(value, bool):
             return tuple(range(self.integer(path, value, 1)))
         if not isinstance(value, list) or not value:
-            raise self.error(
+            raise self.problem(
                 path, f"expected a number of seeds or a non-empty list of seeds, got {value!r}"
             )
         seeds = tuple(self.integer(f"{path}[{i}]", s, 0) for i, s in enumerate(value))
         if len(set(seeds)) != len(seeds):
-            raise self.error(path, f"seeds must be distinct, got {list(seeds)}")
+            raise self.problem(path, f"seeds must be distinct, got {list(seeds)}")
         return seeds
 
 
@@ -248,7 +283,7 @@ def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
     top = f.mapping("", data, TOP_KEYS)
     for required in ("domain", "steps", "seeds", "algorithms"):
         if required not in top:
-            raise f.error(required, "missing (required)")
+            raise f.problem(required, "missing (required)")
 
     domain_name = top["domain"]
     if not (isinstance(domain_name, str) and ":" in domain_name):  # "module:attribute": imported
@@ -256,7 +291,7 @@ def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
     try:
         domain = get_domain(domain_name)
     except TlacError as exc:
-        raise f.error("domain", str(exc)) from exc
+        raise f.problem("domain", str(exc)) from exc
 
     name = f.slug(
         "name", top.get("name", Path(source).stem if source != "<experiment>" else "experiment")
@@ -294,7 +329,7 @@ def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
     # teacher sets: key -> [names] or {label, teachers}
     raw_sets = top.get("teacher_sets") or {}
     if not isinstance(raw_sets, dict):
-        raise f.error(
+        raise f.problem(
             "teacher_sets", f"expected a mapping of set name -> list of teachers, got {raw_sets!r}"
         )
     teacher_sets: list[TeacherSet] = []
@@ -302,17 +337,17 @@ def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
         path = f"teacher_sets.{key}"
         f.slug(path, key)
         if key == NO_TEACHERS:
-            raise f.error(path, f"{NO_TEACHERS!r} is reserved for the no-advice runs")
+            raise f.problem(path, f"{NO_TEACHERS!r} is reserved for the no-advice runs")
         label = key
         if isinstance(value, dict):
             value = f.mapping(path, value, TEACHER_SET_KEYS)
             if "teachers" not in value:
-                raise f.error(f"{path}.teachers", "missing (required)")
+                raise f.problem(f"{path}.teachers", "missing (required)")
             label = f.string(f"{path}.label", value.get("label", key))
             value = value["teachers"]
             path = f"{path}.teachers"
         if not isinstance(value, list) or not value:
-            raise f.error(path, f"expected a non-empty list of teacher names, got {value!r}")
+            raise f.problem(path, f"expected a non-empty list of teacher names, got {value!r}")
         for i, t in enumerate(value):
             f.choice(f"{path}[{i}]", t, f"teacher for {domain_name}", domain.teacher_names)
         teacher_sets.append(TeacherSet(key=key, teachers=tuple(value), label=label))
@@ -320,7 +355,7 @@ def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
 
     raw_algos = top["algorithms"]
     if not isinstance(raw_algos, list) or not raw_algos:
-        raise f.error("algorithms", f"expected a non-empty list of algorithms, got {raw_algos!r}")
+        raise f.problem("algorithms", f"expected a non-empty list of algorithms, got {raw_algos!r}")
     algorithms: list[AlgorithmEntry] = []
     for i, entry in enumerate(raw_algos):
         path = f"algorithms[{i}]"
@@ -328,10 +363,10 @@ def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
             entry = {"name": entry}
         entry = f.mapping(path, entry, ALGORITHM_KEYS)
         if "name" not in entry:
-            raise f.error(f"{path}.name", "missing (required)")
+            raise f.problem(f"{path}.name", "missing (required)")
         algo = f.choice(f"{path}.name", entry["name"], "algorithm", algorithm_names())
         if algo not in domain.presets and entry.get("preset") is None:
-            raise f.error(
+            raise f.problem(
                 f"{path}.name",
                 f"algorithm {algo!r} has no preset for domain {domain_name!r}; expected one of: "
                 f"{', '.join(domain.presets)} (or give 'preset')",
@@ -342,17 +377,17 @@ def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
             try:
                 load_preset(preset, algo)
             except TlacError as exc:
-                raise f.error(f"{path}.preset", str(exc)) from exc
+                raise f.problem(f"{path}.preset", str(exc)) from exc
         overrides = entry.get("overrides") or {}
         if not isinstance(overrides, dict):
-            raise f.error(
+            raise f.problem(
                 f"{path}.overrides",
                 f"expected a mapping of hyperparameter -> value, got {overrides!r}",
             )
         selector = "learned"
         if "selector" in entry:
             if algo != "tlac":
-                raise f.error(
+                raise f.problem(
                     f"{path}.selector", f"only algorithm 'tlac' has a selector, not {algo!r}"
                 )
             selector = f.choice(f"{path}.selector", entry["selector"], "selector", SELECTORS)
@@ -362,11 +397,11 @@ def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
         algo_sets = None
         if entry.get("teacher_sets") is not None:
             if algo in NO_ADVICE:
-                raise f.error(
+                raise f.problem(
                     f"{path}.teacher_sets", f"{algo!r} takes no teachers (a no-advice baseline)"
                 )
             if not isinstance(entry["teacher_sets"], list):
-                raise f.error(
+                raise f.problem(
                     f"{path}.teacher_sets",
                     f"expected a list of teacher-set names, got {entry['teacher_sets']!r}",
                 )
@@ -379,7 +414,7 @@ def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
         else:
             key = algo if selector == "learned" else f"{algo}__{selector}"
         if any(a.key == key for a in algorithms):
-            raise f.error(
+            raise f.problem(
                 path, f"algorithm {key!r} appears twice; give one of them a distinct 'label'"
             )
         algorithms.append(
@@ -394,7 +429,7 @@ def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
             )
         )
         if algo not in NO_ADVICE and not teacher_sets:
-            raise f.error(
+            raise f.problem(
                 "teacher_sets", f"algorithm {algo!r} needs teachers but no teacher set is declared"
             )
 

@@ -1,0 +1,238 @@
+"""The one helper behind every config's checks (TL-AC's, DQN-TLQL's, AC-Teach's settings and
+the experiment files): each check raises one :class:`~tlac.errors.ConfigError` that names the
+field, the value and what was expected.
+
+tlac's configs share one style: a frozen dataclass with a docstring under every field, checked
+in ``__post_init__`` with a :class:`Checks` (so that a config that exists is valid, however it
+was built), and built from a preset or file mapping by :func:`from_mapping` (unknown keys and
+wrong types named before the dataclass is made).
+
+>>> Checks("dqn-tlql").positive_int("batch_size", 0)
+Traceback (most recent call last):
+tlac.errors.ConfigError: dqn-tlql setting batch_size must be a positive integer, got 0
+>>> Checks("x.yaml", file=True).integer("steps", "5e5", 1)
+Traceback (most recent call last):
+tlac.errors.ConfigError: x.yaml: field 'steps': expected an integer >= 1, got '5e5'
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import typing
+from collections.abc import Iterable
+from typing import Any, TypeVar
+
+import numpy as np
+
+from tlac.errors import ConfigError, UnknownNameError
+
+C = TypeVar("C")
+
+
+class Checks:
+    """Checks of one config's fields. ``owner`` names the config in messages: an algorithm
+    (``"TL-AC setting gamma must be in [0, 1], got 2"``) or, with ``file=True``, the file the
+    fields come from (``"x.yaml: field 'steps': expected an integer >= 1, got 0"``)."""
+
+    def __init__(self, owner: str, file: bool = False):
+        self.owner, self.file = owner, file
+
+    def error(self, name: str, expected: str, value: Any) -> ConfigError:
+        """The ConfigError for field ``name`` holding ``value`` where ``expected`` was."""
+        if self.file:
+            return ConfigError(f"{self.owner}: field '{name}': expected {expected}, got {value!r}")
+        return ConfigError(f"{self.owner} setting {name} must be {expected}, got {value!r}")
+
+    def integer(self, name: str, value: Any, minimum: int) -> int:
+        """An integer >= ``minimum`` (YAML's ``5e5``, a whole float, counts as one)."""
+        if isinstance(value, float) and value.is_integer():
+            value = int(value)
+        if not isinstance(value, int | np.integer) or isinstance(value, bool) or value < minimum:
+            expected = "a positive integer" if minimum == 1 and not self.file else None
+            raise self.error(name, expected or f"an integer >= {minimum}", value)
+        return int(value)
+
+    def positive_int(self, name: str, value: Any) -> int:
+        """An integer >= 1, not a float."""
+        if isinstance(value, float):
+            raise self.error(name, "a positive integer", value)
+        return self.integer(name, value, 1)
+
+    def number(
+        self,
+        name: str,
+        value: Any,
+        low: float = -math.inf,
+        high: float = math.inf,
+        open_low: bool = False,
+        open_high: bool = False,
+    ) -> float:
+        """A finite number in the interval from ``low`` to ``high`` (open at an end whose
+        ``open_*`` is true); NaN is never in it."""
+        if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+            raise self.error(name, "a number", value)
+        ok = math.isfinite(value) and (value > low if open_low else value >= low)
+        ok = ok and (value < high if open_high else value <= high)
+        if not ok:
+            raise self.error(name, _interval(low, high, open_low, open_high), value)
+        return float(value)
+
+    def one_of(self, name: str, value: Any, accepted: Iterable[Any]) -> Any:
+        """One of ``accepted`` (an :class:`~tlac.errors.UnknownNameError`, a ConfigError)."""
+        accepted = list(accepted)
+        if value not in accepted:
+            if self.file:
+                raise ConfigError(
+                    f"{self.owner}: field '{name}': unknown {name.rsplit('.', 1)[-1]} "
+                    f"{value!r}; expected one of: {', '.join(map(str, accepted))}"
+                )
+            raise UnknownNameError(name, value, [str(a) for a in accepted])
+        return value
+
+
+def _interval(low: float, high: float, open_low: bool, open_high: bool) -> str:
+    """How :meth:`Checks.number` states its interval: ``> 0``, ``>= 0``, ``in (0, 1]``...
+
+    >>> _interval(0, math.inf, True, False), _interval(0.0, 1.0, True, False)
+    ('> 0', 'in (0, 1]')
+    """
+
+    def text(x: float) -> str:
+        return f"{x:g}"
+
+    if high == math.inf:
+        return "a finite number" if low == -math.inf else f"{'>' if open_low else '>='} {text(low)}"
+    if low == -math.inf:
+        return f"{'<' if open_high else '<='} {text(high)}"
+    return f"in {'(' if open_low else '['}{text(low)}, {text(high)}{')' if open_high else ']'}"
+
+
+# --------------------------------------------------------------------------- typed settings
+POSITIVE_SETTINGS = frozenset(
+    {
+        "learning_rate",
+        "actor_lr",
+        "critic_lr",
+        "clip_range",
+        "target_kl",
+        "optimizer_eps",
+    }
+)
+"""Settings that must be > 0 wherever they appear (a number, or a schedule's end points)."""
+
+
+def _type_error(algo: str, name: str, expected: str, value: Any) -> ConfigError:
+    return Checks(algo).error(name, expected, value)
+
+
+def _check_number(algo: str, name: str, value: Any, integer: bool) -> None:
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise _type_error(algo, name, "an integer" if integer else "a number", value)
+    if integer and not isinstance(value, int | np.integer):
+        raise _type_error(algo, name, "an integer", value)
+    if not np.isfinite(value):
+        raise _type_error(algo, name, "a finite number", value)
+    if name in POSITIVE_SETTINGS and value <= 0:
+        raise _type_error(algo, name, "> 0", value)
+
+
+def _check_schedule(algo: str, name: str, value: dict[str, Any]) -> None:
+    """``{linear: [start, end]}`` with two finite end points (> 0 where the setting must be)."""
+    points = value.get("linear") if len(value) == 1 else None
+    if not isinstance(points, list | tuple) or len(points) != 2:
+        raise _type_error(algo, name, "a number or {linear: [start, end]}", value)
+    for point in points:
+        _check_number(algo, name, point, integer=False)
+
+
+def check_setting_types(cls: type, values: dict[str, Any], algo: str) -> None:
+    """Check every given setting against the type annotation of the dataclass field of the
+    same name: booleans are ``true``/``false`` (not strings or numbers), integers are whole,
+    numbers are finite (no NaN, no infinity), and the settings of :data:`POSITIVE_SETTINGS`
+    are > 0. Schedules (``{linear: [start, end]}``) have their end points checked. Raises one
+    :class:`ConfigError` naming the setting and what it accepts.
+
+    >>> from dataclasses import dataclass
+    >>> @dataclass
+    ... class C:
+    ...     learning_rate: float = 1e-3
+    ...     normalize: bool = True
+    >>> check_setting_types(C, {"learning_rate": float("nan")}, "demo")
+    Traceback (most recent call last):
+    tlac.errors.ConfigError: demo setting learning_rate must be a finite number, got nan
+    >>> check_setting_types(C, {"normalize": "maybe"}, "demo")
+    Traceback (most recent call last):
+    tlac.errors.ConfigError: demo setting normalize must be true or false, got 'maybe'
+    """
+    hints = typing.get_type_hints(cls)
+    for name, value in values.items():
+        hint = hints.get(name)
+        if hint is not None:
+            _check_type(algo, name, value, hint)
+
+
+def _check_type(algo: str, name: str, value: Any, hint: Any) -> None:
+    text = str(hint)
+    if value is None:
+        if "None" not in text:
+            raise _type_error(algo, name, "set (not null)", value)
+        return
+    if hint is bool or text.startswith("bool"):
+        if not isinstance(value, bool | np.bool_):
+            raise _type_error(algo, name, "true or false", value)
+    elif hint is int or text in ("int", "int | None", "typing.Optional[int]"):
+        _check_number(algo, name, value, integer=True)
+    elif isinstance(value, dict) and "dict" in text:
+        _check_schedule(algo, name, value)
+    elif "float" in text:
+        _check_number(algo, name, value, integer=False)
+    elif "list[int]" in text:
+        if not isinstance(value, list | tuple) or not all(
+            isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in value
+        ):
+            raise _type_error(algo, name, "a list of positive integers", value)
+    elif text.startswith("str") and not isinstance(value, str):
+        raise _type_error(algo, name, "a name (text)", value)
+
+
+def check_plain_numbers(values: dict[str, Any], algo: str) -> None:
+    """For settings without a dataclass (the SB3 baselines): every number is finite, the
+    settings of :data:`POSITIVE_SETTINGS` are > 0, and schedules' end points likewise."""
+    for name, value in values.items():
+        if isinstance(value, dict) and set(value) == {"linear"}:
+            _check_schedule(algo, name, value)
+        elif isinstance(value, int | float) and not isinstance(value, bool):
+            _check_number(algo, name, value, integer=False)
+
+
+def from_mapping(
+    cls: type[C],
+    owner: str,
+    values: dict[str, Any],
+    noun: str = "setting",
+    sort_names: bool = False,
+) -> C:
+    """Build the config dataclass ``cls`` from a mapping (a preset, ``--set`` values,
+    keyword arguments): an unknown key raises ConfigError naming it and listing the accepted
+    ones (``unknown <owner> <noun> 'key'; expected one of: ...``, in declaration order or
+    sorted), a value of the wrong type likewise (:func:`check_setting_types`); the remaining
+    checks are the dataclass's own ``__post_init__``.
+
+    >>> from dataclasses import dataclass
+    >>> @dataclass(frozen=True)
+    ... class Demo:
+    ...     steps: int = 1
+    >>> from_mapping(Demo, "demo", {"stepz": 2})
+    Traceback (most recent call last):
+    tlac.errors.ConfigError: unknown demo setting 'stepz'; expected one of: steps
+    """
+    names = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
+    for key in values:
+        if key not in names:
+            listed = sorted(names) if sort_names else names
+            raise ConfigError(
+                f"unknown {owner} {noun} {key!r}; expected one of: {', '.join(listed)}"
+            )
+    check_setting_types(cls, values, owner)
+    return cls(**values)
