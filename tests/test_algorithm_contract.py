@@ -111,6 +111,16 @@ def test_algorithm_contract(tmp_path: Path, algo: str, env_name: str) -> None:
             cls.load(path, env=env, resume=True)
 
 
+@pytest.mark.parametrize("algo", algorithm_names())
+@pytest.mark.parametrize("budget", [0, -5, True, 2.5, "100"])
+def test_learn_refuses_a_budget_that_is_not_a_positive_integer(algo: str, budget) -> None:
+    env, teachers = _doorkey(algo)
+    model = get_algorithm(algo)(env, teachers=teachers, seed=0, recorder=None, **TINY[algo])
+    with pytest.raises(ConfigError, match="total_timesteps must be a positive integer"):
+        model.learn(budget)
+    assert model.num_timesteps == 0
+
+
 def test_a_mismatched_signature_is_reported() -> None:
     class Bad:
         num_timesteps = 0

@@ -40,6 +40,34 @@ def next_log_step(timestep: int, interval: int) -> int:
     return (timestep // interval + 1) * interval
 
 
+class MetricWindow:
+    """The statistics of the updates between two logging steps (:func:`next_log_step`); at a
+    logging step, :meth:`flush` gives each one's mean over the window, or its last value for a
+    count such as ``train/n_updates``.
+
+    >>> window = MetricWindow(counts=("train/n_updates",))
+    >>> window.add({"train/value_loss": 1.0, "train/n_updates": 5})
+    >>> window.add({"train/value_loss": 3.0, "train/n_updates": 10})
+    >>> window.flush()
+    {'train/value_loss': 2.0, 'train/n_updates': 10.0}
+    >>> window.flush()
+    {}
+    """
+
+    def __init__(self, counts: tuple[str, ...] = ()):
+        self.counts = counts
+        self._values: dict[str, list[float]] = {}
+
+    def add(self, stats: dict[str, float]) -> None:
+        for key, value in stats.items():
+            self._values.setdefault(key, []).append(value)
+
+    def flush(self) -> dict[str, float]:
+        out = {k: float(v[-1] if k in self.counts else np.mean(v)) for k, v in self._values.items()}
+        self._values.clear()
+        return out
+
+
 class EpisodeRecorder(VecEnvWrapper):
     """Counts environment steps over all sub-environments and records finished episodes:
     ``path`` (episodes.csv: ``timestep,return,length``) and, beside it, ``monitor.csv``."""

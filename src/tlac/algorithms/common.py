@@ -95,6 +95,21 @@ def checkpoint_path(path: str | Path) -> Path:
     return p if p.suffix == ".pt" else p.with_name(p.name + ".pt")
 
 
+def check_total_timesteps(total_timesteps: Any) -> int:
+    """``learn``'s step budget as an int; anything but a positive integer is a ConfigError.
+
+    >>> check_total_timesteps(np.int64(64))
+    64
+    """
+    if (
+        not isinstance(total_timesteps, int | np.integer)
+        or isinstance(total_timesteps, bool)
+        or total_timesteps <= 0
+    ):
+        raise ConfigError(f"total_timesteps must be a positive integer, got {total_timesteps!r}")
+    return int(total_timesteps)
+
+
 def make_progress_bar(total: int, desc: str, enabled: bool) -> Any:
     """A tqdm bar over environment steps (live in a terminal, a line every 10 s in a log
     file), or ``None`` when ``enabled`` is false."""

@@ -42,6 +42,7 @@ from tlac.algorithms.callbacks import LearnCallbacks
 from tlac.algorithms.common import (
     atomic_torch_save,
     check_env_spaces,
+    check_total_timesteps,
     checkpoint_path,
     linear_epsilon,
     make_progress_bar,
@@ -176,7 +177,8 @@ def learn_loop(
     first update at or after :func:`tlac.recording.next_log_step` of the last log (of the
     first step, for the first log), with the exploration rate and the steps per second;
     ``callback`` runs after every update (:class:`tlac.algorithms.callbacks.LearnCallbacks`)."""
-    start, end = model.num_timesteps, model.num_timesteps + int(total_timesteps)
+    total_timesteps = check_total_timesteps(total_timesteps)
+    start, end = model.num_timesteps, model.num_timesteps + total_timesteps
     model._schedule = model._resumed_schedule or (start, int(total_timesteps))
     model._resumed_schedule = None
     recorder = model.recorder

@@ -42,7 +42,7 @@ from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 from tlac.algorithms.callbacks import split_callbacks
-from tlac.algorithms.common import check_plain_numbers, stop_if_not_finite
+from tlac.algorithms.common import check_plain_numbers, check_total_timesteps, stop_if_not_finite
 from tlac.errors import ConfigError
 from tlac.presets import Schedule, make_schedule
 from tlac.recording import Recorder
@@ -266,6 +266,7 @@ class _SB3Baseline:
         """Train for ``total_timesteps`` environment steps with SB3's own loop. ``callback``:
         a function ``f(algo)`` run after every rollout (``False`` stops), an SB3
         ``BaseCallback`` (given SB3's own model) or a list of them."""
+        total_timesteps = check_total_timesteps(total_timesteps)
         functions, sb3_callbacks = split_callbacks(callback)
         first = self.model.num_timesteps == 0
         total = int(total_timesteps) + (0 if first else self.num_timesteps)

@@ -216,6 +216,15 @@ class TLACConfig:
         """Build and validate a config; unknown keys or bad values raise ConfigError."""
         return from_mapping(cls, "TL-AC", settings)
 
+    @property
+    def entropy_coefs(self) -> tuple[float, float]:
+        """The entropy bonus of (the low level, the high level): ``ent_coef_low`` /
+        ``ent_coef_high`` where set, else ``ent_coef``."""
+        return (
+            self.ent_coef if self.ent_coef_low is None else self.ent_coef_low,
+            self.ent_coef if self.ent_coef_high is None else self.ent_coef_high,
+        )
+
     def validate(self) -> None:
         """Raise ConfigError naming the first setting out of its range (run when the config
         is made; a frozen config stays valid)."""
@@ -270,6 +279,19 @@ def domain_preset(name: str) -> dict[str, Any]:
     """The TL-AC settings of a named domain's preset (paper Tables 5, 8, 10)."""
     domain = get_domain(name)
     return load_preset(domain.presets["tlac"], "tlac") if "tlac" in domain.presets else {}
+
+
+def resolve_settings(env: Any, preset: str | None, settings: dict[str, Any]) -> dict[str, Any]:
+    """``TLAC(env, preset=..., **settings)``'s settings before validation: the preset (``"auto"``:
+    a domain name's own, as ``tlac train`` uses it, else ``presets/default.yaml``; a preset name;
+    None: none), then SB3's ``policy_kwargs``, then the settings given by name."""
+    if preset == "auto":
+        base = domain_preset(env) if isinstance(env, str) else load_preset("default", "tlac")
+    else:
+        base = {} if preset is None else load_preset(preset, "tlac")
+    settings = dict(settings)
+    from_policy_kwargs = settings_from_policy_kwargs(settings.pop("policy_kwargs", None))
+    return {**base, **from_policy_kwargs, **settings}
 
 
 def settings_from_policy_kwargs(policy_kwargs: Any) -> dict[str, Any]:

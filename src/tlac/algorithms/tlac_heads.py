@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 import gymnasium as gym
 import numpy as np
 import torch
+from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
 from torch import nn
 
 from tlac.algorithms import losses
@@ -34,6 +35,7 @@ from tlac.algorithms.nets import (
 )
 from tlac.algorithms.normalization import Normalizer
 from tlac.errors import ConfigError
+from tlac.presets import make_schedule
 
 if TYPE_CHECKING:
     from tlac.algorithms.tlac_config import TLACConfig
@@ -328,3 +330,12 @@ class TLACHeads:
         A teacher is queried only for the rows where it was chosen."""
         query_teachers(self.teachers, choices, obs, self.action_space, actions)
         return actions
+
+
+def make_optimizer(cfg: TLACConfig, params: list[nn.Parameter]) -> torch.optim.Optimizer:
+    """The optimiser of all three networks: SB3's RMSpropTFLike (the paper's Table 5) or Adam,
+    at the learning rate's starting value (``learn`` sets it per update from its schedule)."""
+    lr0 = make_schedule(cfg.learning_rate, "learning_rate")(1.0)
+    if cfg.optimizer == "adam":
+        return torch.optim.Adam(params, lr=lr0, eps=cfg.optimizer_eps, foreach=True)
+    return RMSpropTFLike(params, lr=lr0, alpha=cfg.rmsprop_alpha, eps=cfg.optimizer_eps)

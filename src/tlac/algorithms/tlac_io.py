@@ -1,6 +1,8 @@
-"""TL-AC's persistence: saving and loading a model, with or without the training state that an
-exact resume needs (:class:`TLACPersistence`, a mixin of :class:`tlac.algorithms.two_level.TLAC`),
-and turning what a user passes as ``env`` into a VecEnv (:func:`as_vec_env`)."""
+"""TL-AC's input and output: turning what a user passes as ``env`` and ``teachers`` into a VecEnv
+and Teacher objects (:func:`as_vec_env`, :func:`as_teachers`); saving and loading a model, with
+or without the training state that an exact resume needs (:class:`TLACPersistence`, a mixin of
+:class:`tlac.algorithms.two_level.TLAC`); and what ``learn`` logs and shows on its progress bar
+(:func:`log_metrics`, :func:`progress_text`)."""
 
 from __future__ import annotations
 
@@ -31,9 +33,10 @@ from tlac.algorithms.resume import (
     vec_env_state,
 )
 from tlac.algorithms.tlac_config import TLACConfig
-from tlac.domains import get_domain, make_vec_env
+from tlac.domains import get_domain, make_teachers, make_vec_env
 from tlac.errors import ConfigError
 from tlac.recording import EpisodeRecorder, find_episode_recorder
+from tlac.teachers.base import Teacher, as_teacher, teacher_label, unique_names
 
 FORMAT = "tlac.TLAC/2"
 """Checkpoint format: plain data and tensors only (loads with weights_only=True). Format 1
@@ -59,6 +62,62 @@ def as_vec_env(env: Any, n_envs: int, seed: int, vec_env: str = "dummy") -> tupl
     if find_episode_recorder(venv) is None:
         venv = EpisodeRecorder(venv)
     return venv, None
+
+
+def as_teachers(
+    teachers: Sequence[Any], domain: Any, seed: int, action_space: gym.Space
+) -> list[Teacher]:
+    """What a user passes as ``teachers``: a domain's teacher names (``env`` a domain name), or
+    objects / SB3 models / plain functions, named for the logs (unique names)."""
+    if teachers and all(isinstance(t, str) for t in teachers):
+        if domain is None:
+            raise ConfigError(
+                "teacher names need env to be a domain name, e.g. TLAC('doorkey', ['optimal'])"
+            )
+        return make_teachers(domain, list(teachers), domain.make_env(), seed)
+    names = unique_names([teacher_label(t, i) for i, t in enumerate(teachers)])
+    return [as_teacher(t, action_space, n) for t, n in zip(teachers, names, strict=True)]
+
+
+def log_metrics(
+    model: Any,
+    metrics: dict[str, float],
+    fps: float,
+    episodes: EpisodeRecorder | None,
+    sb3_output: bool,
+) -> None:
+    """A logging step of ``model.learn``: the window's statistics, the speed and the recent
+    training episodes, to the run folder's progress.csv and (verbose / TensorBoard) SB3's
+    logger."""
+    metrics["time/fps"] = fps
+    metrics["time/total_timesteps"] = model.num_timesteps
+    if episodes is not None and episodes.episode_returns:
+        metrics["rollout/ep_rew_mean"] = episodes.mean_recent_return()
+        metrics["rollout/ep_len_mean"] = episodes.mean_recent_length()
+    if model.recorder is not None:
+        model.recorder.record_metrics(model.num_timesteps, metrics)
+    if sb3_output:
+        for key, value in metrics.items():
+            model.logger.record(key, value)
+        model.logger.dump(model.num_timesteps)
+
+
+def progress_text(
+    episodes: EpisodeRecorder | None, usage: np.ndarray, teacher_names: list[str]
+) -> str:
+    """The progress bar's text: the training return (teachers included; the student alone is
+    what evaluations print) and the share of each teacher and the agent in recent choices.
+
+    >>> progress_text(None, np.array([3.0, 1.0]), ["optimal"])
+    'training return nan | optimal 75% agent 25%'
+    """
+    ret = episodes.mean_recent_return() if episodes is not None else float("nan")
+    parts = [f"training return {ret:.3g}"]
+    if teacher_names and usage.sum() > 0:
+        frac = usage / usage.sum()
+        names = [*teacher_names, "agent"]
+        parts.append(" ".join(f"{n} {f:.0%}" for n, f in zip(names, frac, strict=True)))
+    return " | ".join(parts)
 
 
 _Model = TypeVar("_Model", bound="TLACPersistence")
@@ -209,7 +268,7 @@ class TLACPersistence:
         if teachers is not None:
             if model.env is None and teachers and all(isinstance(t, str) for t in teachers):
                 raise ConfigError("teacher names need env to be a domain name")
-            model.teachers = model._make_teachers(teachers, domain, model.seed) if teachers else []
+            model.teachers = as_teachers(teachers, domain, model.seed, action_space) if teachers else []
             if len(model.teachers) != len(names):
                 raise ConfigError(
                     f"the model was trained with {len(names)} teachers ({', '.join(names) or 'none'}); "

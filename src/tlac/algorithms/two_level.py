@@ -25,31 +25,28 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import torch
-from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
 from torch import nn
 
 from tlac.algorithms import losses
 from tlac.algorithms.callbacks import LearnCallbacks, SB3Compat, check_sb3_arguments
 from tlac.algorithms.common import (
     check_seed,
+    check_total_timesteps,
     make_progress_bar,
     stop_if_not_finite,
 )
 from tlac.algorithms.graduation import AdviceBuffer, SoloEpisodes
-from tlac.algorithms.nets import (
-    LOW,
-    np_log_softmax,
-)
+from tlac.algorithms.nets import LOW, np_log_softmax
 from tlac.algorithms.rollout import Rollout, compute_gae
-from tlac.algorithms.tlac_config import (  # noqa: F401  (re-exported: the names' old home)
-    VARIANT_DEFAULTS,
-    Schedule,
-    TLACConfig,
-    domain_preset,
-    settings_from_policy_kwargs,
+from tlac.algorithms.tlac_config import VARIANT_DEFAULTS, TLACConfig, resolve_settings  # noqa: F401  (VARIANT_DEFAULTS: re-exported)
+from tlac.algorithms.tlac_heads import TLACHeads, make_optimizer
+from tlac.algorithms.tlac_io import (
+    TLACPersistence,
+    as_teachers,
+    as_vec_env,
+    log_metrics,
+    progress_text,
 )
-from tlac.algorithms.tlac_heads import TLACHeads
-from tlac.algorithms.tlac_io import FORMAT, TLACPersistence, as_vec_env  # noqa: F401
 from tlac.algorithms.tlac_update import (
     RowWeights,
     UpdateLog,
@@ -58,10 +55,9 @@ from tlac.algorithms.tlac_update import (
     summarize_update,
 )
 from tlac.errors import ConfigError
-from tlac.presets import load_preset, make_schedule
-from tlac.recording import EpisodeRecorder, Recorder, find_episode_recorder
+from tlac.presets import make_schedule
+from tlac.recording import MetricWindow, Recorder, find_episode_recorder, next_log_step
 from tlac.selectors import Selector, make_selector
-from tlac.teachers.base import Teacher, as_teacher, teacher_label, unique_names
 
 
 class TLAC(TLACHeads, SB3Compat, TLACPersistence):
@@ -109,14 +105,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             tensorboard_log,
             torch_threads,
         )
-        if preset == "auto":
-            base = domain_preset(env) if isinstance(env, str) else load_preset("default", "tlac")
-        else:
-            base = {} if preset is None else load_preset(preset, "tlac")
-        # precedence: the preset, then SB3's policy_kwargs, then settings given by name
-        from_policy_kwargs = settings_from_policy_kwargs(settings.pop("policy_kwargs", None))
-        settings = {**base, **from_policy_kwargs, **settings}
-        self.config = TLACConfig.from_settings(settings)
+        self.config = TLACConfig.from_settings(resolve_settings(env, preset, settings))
         self.seed = seed = check_seed(seed)
         torch.manual_seed(seed)
         self.env, domain = as_vec_env(env, self.config.n_envs, seed, self.config.vec_env)
@@ -126,7 +115,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 f"batch_size {self.config.batch_size} exceeds the rollout size n_steps * n_envs = "
                 f"{self.config.n_steps * self.n_envs}"
             )
-        self.teachers = self._make_teachers(teachers, domain, seed)
+        self.teachers = as_teachers(teachers, domain, seed, self.env.action_space)
         self.recorder = recorder
         self._build(
             self.env.observation_space, self.env.action_space, [t.name for t in self.teachers]
@@ -135,20 +124,6 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self._last_obs: np.ndarray | None = None
 
     # ----------------------------------------------------------------- construction
-    def _make_teachers(self, teachers: Sequence[Any], domain: Any, seed: int) -> list[Teacher]:
-        if teachers and all(isinstance(t, str) for t in teachers):
-            if domain is None:
-                raise ConfigError(
-                    "teacher names need env to be a domain name, e.g. TLAC('doorkey', ['optimal'])"
-                )
-            from tlac.domains import make_teachers
-
-            return make_teachers(domain, list(teachers), domain.make_env(), seed)
-        names = unique_names([teacher_label(t, i) for i, t in enumerate(teachers)])
-        return [
-            as_teacher(t, self.env.action_space, n) for t, n in zip(teachers, names, strict=True)
-        ]
-
     def _build(
         self, obs_space: gym.Space, action_space: gym.Space, teacher_names: list[str]
     ) -> None:
@@ -157,16 +132,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self.n_teachers = len(teacher_names)
         self.n_choices = self.n_teachers + 1  # E = E_0 U {Agent}; the agent is the last index
         self._build_networks(obs_space, action_space)
-        params = self.params
-        lr0 = make_schedule(cfg.learning_rate, "learning_rate")(1.0)
-        if cfg.optimizer == "adam":
-            self.optimizer: torch.optim.Optimizer = torch.optim.Adam(
-                params, lr=lr0, eps=cfg.optimizer_eps, foreach=True
-            )
-        else:
-            self.optimizer = RMSpropTFLike(
-                params, lr=lr0, alpha=cfg.rmsprop_alpha, eps=cfg.optimizer_eps
-            )
+        self.optimizer = make_optimizer(cfg, self.params)
         self.lr_schedule = make_schedule(cfg.learning_rate, "learning_rate")
         self.clip_schedule = make_schedule(cfg.clip_range, "clip_range")
         self.distill_schedule = make_schedule(cfg.distill_coef, "distill_coef")
@@ -197,12 +163,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self._schedule: tuple[int, int] | None = None
         self._resumed_schedule: tuple[int, int] | None = None
         self._n_updates = 0  # epochs begun over all updates (SB3's train/n_updates)
-        self._ent_coefs = torch.tensor(
-            [  # [low, high]
-                cfg.ent_coef if cfg.ent_coef_low is None else cfg.ent_coef_low,
-                cfg.ent_coef if cfg.ent_coef_high is None else cfg.ent_coef_high,
-            ]
-        )
+        self._ent_coefs = torch.tensor(cfg.entropy_coefs)  # [low, high]
         self._use_entropy = bool(self._ent_coefs.any())
 
     @classmethod
@@ -427,14 +388,52 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         (returning ``False`` stops), an SB3 ``BaseCallback`` (``EvalCallback``,
         ``CheckpointCallback``...) or a list of them (``tlac.algorithms.callbacks``).
         """
-        if (
-            not isinstance(total_timesteps, int | np.integer)
-            or isinstance(total_timesteps, bool)
-            or total_timesteps <= 0
-        ):
-            raise ConfigError(
-                f"total_timesteps must be a positive integer, got {total_timesteps!r}"
-            )
+        total_timesteps = check_total_timesteps(total_timesteps)
+        self._check_can_learn()
+        start_steps = self.num_timesteps
+        end_steps = start_steps + total_timesteps
+        # the schedules' clock: this call's steps, or, right after a resume, the interrupted
+        # call's (so that a resumed run follows the same linear schedules as an uninterrupted one)
+        origin, horizon = self._resumed_schedule or (start_steps, total_timesteps)
+        self._resumed_schedule = None
+        self._schedule = (origin, horizon)
+        episodes = find_episode_recorder(self.env)
+        bar = make_progress_bar(total_timesteps, "TL-AC", progress_bar)
+        usage = np.zeros(self.n_choices)  # the high level's choices since the bar's last text
+        window = MetricWindow(counts=("train/n_updates",))
+        sb3_output = self._sb3_output()
+        interval = self.recorder.log_interval if self.recorder else self.log_interval
+        next_log = next_log_step(start_steps, interval)
+        if self.torch_threads is not None:
+            torch.set_num_threads(self.torch_threads)
+        t0, last_bar = time.time(), 0.0
+        callbacks = LearnCallbacks(callback, self)
+        while self.num_timesteps < end_steps:
+            ro = self.collect()
+            usage += np.bincount(ro.choices.reshape(-1), minlength=self.n_choices)
+            progress_remaining = 1.0 - (self.num_timesteps - origin) / horizon
+            window.add(self.update(ro, max(progress_remaining, 0.0)))
+            if (self.recorder is not None or sb3_output) and self.num_timesteps >= next_log:
+                fps = (self.num_timesteps - start_steps) / max(time.time() - t0, 1e-9)
+                log_metrics(self, window.flush(), fps, episodes, sb3_output)
+                next_log = next_log_step(self.num_timesteps, interval)
+            if bar is not None:
+                bar.update(min(self.num_timesteps, end_steps) - bar.n - start_steps)
+                if time.time() - last_bar > 0.5:
+                    last_bar = time.time()
+                    bar.set_postfix_str(
+                        progress_text(episodes, usage, self.teacher_names), refresh=False
+                    )
+                    usage[:] = 0
+            if not callbacks.after_update():
+                break
+        callbacks.end()
+        if bar is not None:
+            bar.set_postfix_str(progress_text(episodes, usage, self.teacher_names), refresh=False)
+            bar.close()
+        return self
+
+    def _check_can_learn(self) -> None:
         if self.env is None:
             raise ConfigError("this model has no environment: pass env= to TLAC.load to train it")
         if len(self.teachers) != self.n_teachers:
@@ -442,73 +441,3 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 f"this model was trained with {self.n_teachers} teachers ({', '.join(self.teacher_names)}); "
                 "pass the same number as teachers= to TLAC.load to train it further"
             )
-        start_steps = self.num_timesteps
-        end_steps = start_steps + int(total_timesteps)
-        # the schedules' clock: this call's steps, or, right after a resume, the interrupted
-        # call's (so that a resumed run follows the same linear schedules as an uninterrupted one)
-        origin, horizon = self._resumed_schedule or (start_steps, total_timesteps)
-        self._resumed_schedule = None
-        self._schedule = (origin, horizon)
-        episodes = find_episode_recorder(self.env)
-        bar = make_progress_bar(int(total_timesteps), "TL-AC", progress_bar)
-        usage = np.zeros(self.n_choices)
-        window: dict[str, list[float]] = {}
-        sb3_output = self._sb3_output()
-        interval = self.recorder.log_interval if self.recorder else self.log_interval
-        next_log = (start_steps // interval + 1) * interval
-        if self.torch_threads is not None:
-            torch.set_num_threads(self.torch_threads)
-        t0 = time.time()
-        last_bar = 0.0
-        callbacks = LearnCallbacks(callback, self)
-        while self.num_timesteps < end_steps:
-            ro = self.collect()
-            usage += np.bincount(ro.choices.reshape(-1), minlength=self.n_choices)
-            progress_remaining = 1.0 - (self.num_timesteps - origin) / horizon
-            stats = self.update(ro, max(progress_remaining, 0.0))
-            for k, v in stats.items():
-                window.setdefault(k, []).append(v)
-            if (self.recorder is not None or sb3_output) and self.num_timesteps >= next_log:
-                # the window's mean of each statistic; a count (n_updates) at its end
-                metrics = {
-                    k: float(v[-1] if k == "train/n_updates" else np.mean(v))
-                    for k, v in window.items()
-                }
-                metrics["time/fps"] = (self.num_timesteps - start_steps) / max(
-                    time.time() - t0, 1e-9
-                )
-                metrics["time/total_timesteps"] = self.num_timesteps
-                if episodes is not None and episodes.episode_returns:
-                    metrics["rollout/ep_rew_mean"] = episodes.mean_recent_return()
-                    metrics["rollout/ep_len_mean"] = episodes.mean_recent_length()
-                if self.recorder is not None:
-                    self.recorder.record_metrics(self.num_timesteps, metrics)
-                if sb3_output:
-                    for key, value in metrics.items():
-                        self.logger.record(key, value)
-                    self.logger.dump(self.num_timesteps)
-                window.clear()
-                next_log = (self.num_timesteps // interval + 1) * interval
-            if bar is not None:
-                bar.update(min(self.num_timesteps, end_steps) - bar.n - start_steps)
-                now = time.time()
-                if now - last_bar > 0.5:
-                    last_bar = now
-                    bar.set_postfix_str(self._bar_text(episodes, usage), refresh=False)
-                    usage[:] = 0
-            if not callbacks.after_update():
-                break
-        callbacks.end()
-        if bar is not None:
-            bar.set_postfix_str(self._bar_text(episodes, usage), refresh=False)
-            bar.close()
-        return self
-
-    def _bar_text(self, episodes: EpisodeRecorder | None, usage: np.ndarray) -> str:
-        ret = episodes.mean_recent_return() if episodes is not None else float("nan")
-        parts = [f"training return {ret:.3g}"]  # teachers included; the student alone: eval
-        if self.n_teachers and usage.sum() > 0:
-            frac = usage / usage.sum()
-            names = [*self.teacher_names, "agent"]
-            parts.append(" ".join(f"{n} {f:.0%}" for n, f in zip(names, frac, strict=True)))
-        return " | ".join(parts)
