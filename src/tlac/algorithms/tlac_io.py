@@ -125,7 +125,50 @@ _Model = TypeVar("_Model", bound="TLACPersistence")
 
 class TLACPersistence:
     """Save / load for :class:`~tlac.algorithms.two_level.TLAC` (its ``config``, networks,
-    optimizer, normaliser and, on request, its training state)."""
+    optimizer, normaliser and, on request, its training state), and the one construction path
+    that ``TLAC(...)`` and ``TLAC.load`` share (:meth:`_setup`)."""
+
+    def _setup(
+        self,
+        config: TLACConfig,
+        seed: int,
+        env: Any,
+        teachers: Sequence[Any] | None,
+        recorder: Any,
+        saved: dict[str, Any] | None = None,
+    ) -> None:
+        """Settings, environments, teachers and networks, for a new model or (``saved``: a
+        checkpoint's contents) a loaded one, whose spaces and teacher names come from the file:
+        ``env`` is then optional and must match those spaces, and ``teachers``, when given,
+        must be as many as at save time."""
+        self.config, self.seed, self.recorder = config, seed, recorder
+        self.num_timesteps = 0 if saved is None else int(saved["num_timesteps"])
+        self._last_obs: np.ndarray | None = None
+        self.env, domain, self.n_envs = None, None, 1
+        if saved is None or env is not None:  # a loaded model steps its envs in-process
+            vec_env = config.vec_env if saved is None else "dummy"
+            self.env, domain = as_vec_env(env, config.n_envs, seed, vec_env)
+            self.n_envs = self.env.num_envs
+        if saved is None:
+            obs_space, action_space = self.env.observation_space, self.env.action_space
+            if config.batch_size > config.n_steps * self.n_envs:
+                raise ConfigError(
+                    f"batch_size {config.batch_size} exceeds the rollout size n_steps * n_envs = "
+                    f"{config.n_steps * self.n_envs}"
+                )
+        else:
+            obs_space = space_from_data(saved["observation_space"])
+            action_space = space_from_data(saved["action_space"])
+            if self.env is not None:
+                check_env_spaces(self.env, obs_space, action_space)
+        self.teachers = as_teachers(teachers or [], domain, seed, action_space)
+        names = [t.name for t in self.teachers] if saved is None else saved["teacher_names"]
+        if saved is not None and teachers is not None and len(self.teachers) != len(names):
+            raise ConfigError(
+                f"the model was trained with {len(names)} teachers ({', '.join(names) or 'none'}); "
+                f"got {len(self.teachers)}"
+            )
+        self._build(obs_space, action_space, names)
 
     def save(
         self,
@@ -249,32 +292,8 @@ class TLACPersistence:
             found = state.get("format") if isinstance(state, dict) else None
             hint = f" (it is {found}, from an older tlac: retrain it)" if found else ""
             raise ConfigError(f"{str(path)!r} is not a {FORMAT} model file{hint}")
-        obs_space = space_from_data(state["observation_space"])
-        action_space = space_from_data(state["action_space"])
         model = cls.__new__(cls)
-        model.config = TLACConfig(**state["config"])
-        model.seed = state["seed"]
-        model.recorder = None
-        model.num_timesteps = state["num_timesteps"]
-        model._last_obs = None
-        names = state["teacher_names"]
-        if env is not None:
-            model.env, domain = as_vec_env(env, model.config.n_envs, model.seed)
-            model.n_envs = model.env.num_envs
-            check_env_spaces(model.env, obs_space, action_space)
-        else:
-            model.env, domain, model.n_envs = None, None, 1
-        model.teachers = []
-        if teachers is not None:
-            if model.env is None and teachers and all(isinstance(t, str) for t in teachers):
-                raise ConfigError("teacher names need env to be a domain name")
-            model.teachers = as_teachers(teachers, domain, model.seed, action_space) if teachers else []
-            if len(model.teachers) != len(names):
-                raise ConfigError(
-                    f"the model was trained with {len(names)} teachers ({', '.join(names) or 'none'}); "
-                    f"got {len(model.teachers)}"
-                )
-        model._build(obs_space, action_space, names)
+        model._setup(TLACConfig(**state["config"]), state["seed"], env, teachers, None, state)
         # checkpoints before the per-layer masks stored an all-ones mask for every layer
         known = model.net.state_dict()
         model.net.load_state_dict({k: v for k, v in state["net"].items() if k in known})

@@ -42,8 +42,6 @@ from tlac.algorithms.tlac_config import VARIANT_DEFAULTS, TLACConfig, resolve_se
 from tlac.algorithms.tlac_heads import TLACHeads, make_optimizer
 from tlac.algorithms.tlac_io import (
     TLACPersistence,
-    as_teachers,
-    as_vec_env,
     log_metrics,
     progress_text,
 )
@@ -105,23 +103,10 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             tensorboard_log,
             torch_threads,
         )
-        self.config = TLACConfig.from_settings(resolve_settings(env, preset, settings))
-        self.seed = seed = check_seed(seed)
-        torch.manual_seed(seed)
-        self.env, domain = as_vec_env(env, self.config.n_envs, seed, self.config.vec_env)
-        self.n_envs = self.env.num_envs
-        if self.config.batch_size > self.config.n_steps * self.n_envs:
-            raise ConfigError(
-                f"batch_size {self.config.batch_size} exceeds the rollout size n_steps * n_envs = "
-                f"{self.config.n_steps * self.n_envs}"
-            )
-        self.teachers = as_teachers(teachers, domain, seed, self.env.action_space)
-        self.recorder = recorder
-        self._build(
-            self.env.observation_space, self.env.action_space, [t.name for t in self.teachers]
-        )
-        self.num_timesteps = 0
-        self._last_obs: np.ndarray | None = None
+        config = TLACConfig.from_settings(resolve_settings(env, preset, settings))
+        seed = check_seed(seed)
+        torch.manual_seed(seed)  # the networks' initialisation
+        self._setup(config, seed, env, teachers, recorder)
 
     # ----------------------------------------------------------------- construction
     def _build(
