@@ -1,0 +1,78 @@
+"""Trace one TL-AC run on a user environment of benchmarks/user_envs.py: after every chunk of
+training, the student alone (greedy), the high level's mean probabilities on the first
+teacher's own trajectory, and the student's greedy agreement with that teacher there.
+
+    .venv/bin/python benchmarks/graduation_trace.py CartPole-v1 --seed 2
+
+It showed why the default's student can fall late in training (docs/graduation.md, "Users'
+own environments"): the high level hands control to the agent, and the imitation term, which
+weighs the teachers by the high level's probabilities renormalised over the teachers, then
+follows trust that has drifted to the random teacher.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import gymnasium as gym
+import numpy as np
+import torch
+from user_envs import SUITE, evaluate
+
+from tlac import TLAC
+from tlac.algorithms.nets import np_log_softmax
+
+
+def teacher_trajectory(env_id: str, teacher, n: int, seed: int = 123) -> np.ndarray:
+    """``n`` states visited by ``teacher`` (episodes restart when they end)."""
+    env = gym.make(env_id)
+    obs, _ = env.reset(seed=seed)
+    states = []
+    for _ in range(n):
+        states.append(obs)
+        obs, _, terminated, truncated, _ = env.step(teacher(obs))
+        if terminated or truncated:
+            obs, _ = env.reset()
+    return np.stack(states).astype(np.float32)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("env", choices=list(SUITE))
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--steps", type=int, default=100_000)
+    parser.add_argument("--chunks", type=int, default=10)
+    parser.add_argument("--states", type=int, default=300)
+    parser.add_argument("--episodes", type=int, default=5)
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    env = gym.make(args.env)
+    teachers = SUITE[args.env](args.seed, env.action_space)
+    model = TLAC(env, teachers=teachers, seed=args.seed)
+    states = teacher_trajectory(args.env, teachers[0], args.states)
+    advice = np.array([teachers[0](s) for s in states])
+    names = [*model.teacher_names, "agent"]
+    print("steps | student alone | high level: " + " / ".join(names) + " | agreement", flush=True)
+    for chunk in range(1, args.chunks + 1):
+        model.learn(args.steps // args.chunks, progress_bar=False)
+        high = np.exp(np_log_softmax(model._act_heads(states)[0])).mean(0)
+        greedy = model.predict(states, deterministic=True)[0]
+        agreement = float(
+            np.mean(
+                np.all(
+                    np.isclose(greedy.reshape(len(states), -1), advice.reshape(len(states), -1)),
+                    axis=1,
+                )
+            )
+        )
+        alone = evaluate(lambda b: model.predict(b, deterministic=True)[0], args.env, args.episodes)
+        print(
+            f"{chunk * args.steps // args.chunks} | {alone.mean():.1f} | "
+            + " / ".join(f"{p:.2f}" for p in high)
+            + f" | {agreement:.2f}",
+            flush=True,
+        )
+
+
+if __name__ == "__main__":
+    main()
