@@ -87,7 +87,9 @@ class Checks:
                     f"{self.owner}: field '{name}': unknown {name.rsplit('.', 1)[-1]} "
                     f"{value!r}; expected one of: {', '.join(map(str, accepted))}"
                 )
-            raise UnknownNameError(name, value, [str(a) for a in accepted])
+            error = UnknownNameError(name, value, [str(a) for a in accepted])
+            error.args = (f"{self.owner}: {error.args[0]}",)  # which algorithm's setting
+            raise error
         return value
 
 

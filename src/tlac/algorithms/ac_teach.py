@@ -48,6 +48,7 @@ from tlac.algorithms.callbacks import SB3Compat
 from tlac.algorithms.common import (
     check_observations,
     check_seed,
+    check_total_timesteps,
     config_from_kwargs,
     flat_obs,
     polyak_update,
@@ -624,6 +625,7 @@ class ACTeach(SB3Compat):
         ``cycle_grad_steps`` gradient steps, for ``total_timesteps`` steps over all envs.
         ``callback``: a function ``f(model)`` run after every cycle (``False`` stops), an SB3
         ``BaseCallback`` or a list (``tlac.algorithms.callbacks``)."""
+        check_total_timesteps(total_timesteps)  # before anything is reset or allocated
         if self.env is None:
             raise ConfigError(
                 "ac-teach: learn() needs an environment; load(path, env=...) to continue training"

@@ -14,12 +14,7 @@ from torch import nn
 
 from tlac.errors import ConfigError
 from tlac.teachers.base import ask_teacher
-from tlac.validation import (  # noqa: F401  (re-exported: their old home)
-    POSITIVE_SETTINGS,
-    check_plain_numbers,
-    check_setting_types,
-    from_mapping,
-)
+from tlac.validation import from_mapping
 
 C = TypeVar("C")
 

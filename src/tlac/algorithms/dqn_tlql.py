@@ -41,6 +41,7 @@ from tlac.algorithms.callbacks import SB3Compat
 from tlac.algorithms.common import (
     check_observations,
     check_seed,
+    check_total_timesteps,
     config_from_kwargs,
     flat_obs,
     mlp,
@@ -266,6 +267,7 @@ class DQNTLQL(SB3Compat):
         """Collect and update for ``total_timesteps`` environment steps (over all envs).
         ``callback``: a function ``f(model)`` run after every training step (``False``
         stops), an SB3 ``BaseCallback`` or a list (``tlac.algorithms.callbacks``)."""
+        check_total_timesteps(total_timesteps)  # before anything is reset or allocated
         if self.env is None:
             raise ConfigError(
                 "dqn-tlql: learn() needs an environment; load(path, env=...) to continue training"

@@ -42,10 +42,11 @@ from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 from tlac.algorithms.callbacks import split_callbacks
-from tlac.algorithms.common import check_plain_numbers, check_total_timesteps, stop_if_not_finite
+from tlac.algorithms.common import check_total_timesteps, stop_if_not_finite
 from tlac.errors import ConfigError
 from tlac.presets import Schedule, make_schedule
 from tlac.recording import Recorder
+from tlac.validation import check_plain_numbers
 
 ContractCallback = Callable[[Any], "bool | None"]
 

@@ -39,6 +39,7 @@ from tlac.presets import make_schedule
 
 if TYPE_CHECKING:
     from tlac.algorithms.tlac_config import TLACConfig
+    from tlac.selectors import Selector
     from tlac.teachers.base import Teacher
 
 
@@ -52,6 +53,8 @@ class TLACHeads:
     n_envs: int
     rng: np.random.Generator
     train_high: bool
+    selector: Selector
+    _sde_noise: np.ndarray | None
 
     def _build_networks(self, obs_space: gym.Space, action_space: gym.Space) -> None:
         """The stacked networks (high, low, critic), the Box log-std, the input encoder and

@@ -36,11 +36,12 @@ def row_weights(
     n_teachers: int,
     train_high: bool,
     solo: bool,
-    imitates: bool,
+    has_advice: bool,
 ) -> RowWeights:
     """The rows of an update (``data``: the flat rollout). ``solo``: some episodes are the
-    student's alone (no high-level choice in them); ``imitates``: the low level has an
-    imitation term (``kl_rows: high`` means the agent's rows only without one).
+    student's alone (no high-level choice in them); ``has_advice``: the advice buffer already
+    holds states from earlier updates (``kl_rows: high`` falls back to the agent's rows while
+    it is empty, as on the very first update).
 
     >>> cfg = TLACConfig.from_settings({"variant": "paper"})
     >>> data = {"log_prob_low": torch.zeros(3), "log_prob_high": torch.ones(3),
@@ -59,7 +60,7 @@ def row_weights(
     # on every row outside the student's solo episodes.
     agent_rows = (data["choices"] == n_teachers).float()
     high_rows = 1.0 - data["solo"]
-    rule = cfg.kl_rows if cfg.kl_rows != "high" or imitates else "agent"
+    rule = cfg.kl_rows if cfg.kl_rows != "high" or has_advice else "agent"
     low_kl_rows = {"agent": agent_rows, "all": torch.ones(n), "high": torch.zeros(n)}[rule]
     kl = torch.stack([low_kl_rows, high_rows])[:levels]
     loss = None
