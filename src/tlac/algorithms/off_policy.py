@@ -42,7 +42,6 @@ from tlac.algorithms.callbacks import LearnCallbacks
 from tlac.algorithms.common import (
     atomic_torch_save,
     check_env_spaces,
-    check_total_timesteps,
     checkpoint_path,
     linear_epsilon,
     make_progress_bar,
@@ -171,14 +170,14 @@ def exploration_rate(model: OffPolicySteps) -> float:
 def learn_loop(
     model: OffPolicySteps, total_timesteps: int, callback: Any, progress_bar: bool, desc: str
 ) -> None:
-    """Run ``total_timesteps`` environment steps (over all environments) of ``model``'s
-    collect / update steps (see the module docstring). The exploration schedule spans this
+    """Run ``total_timesteps`` environment steps (over all environments; the caller's
+    ``learn`` has checked the number) of ``model``'s collect / update steps (see the module
+    docstring). The exploration schedule spans this
     call, or the interrupted call that a resumed model continues; metrics are logged at the
     first update at or after :func:`tlac.recording.next_log_step` of the last log (of the
     first step, for the first log), with the exploration rate and the steps per second;
     ``callback`` runs after every update (:class:`tlac.algorithms.callbacks.LearnCallbacks`)."""
-    total_timesteps = check_total_timesteps(total_timesteps)
-    start, end = model.num_timesteps, model.num_timesteps + total_timesteps
+    start, end = model.num_timesteps, model.num_timesteps + int(total_timesteps)
     model._schedule = model._resumed_schedule or (start, int(total_timesteps))
     model._resumed_schedule = None
     recorder = model.recorder

@@ -76,7 +76,7 @@ class TLACHeads:
         if cfg.normalize_obs or cfg.normalize_reward:
             self.normalizer = Normalizer(
                 self.obs_dim,
-                getattr(self, "n_envs", 1),
+                self.n_envs,
                 cfg.gamma,
                 cfg.normalize_obs,
                 cfg.normalize_reward,

@@ -127,7 +127,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self.generator = torch.Generator().manual_seed(self.seed)  # minibatch order
         self.rng = np.random.default_rng(self.seed)  # acting
         self.selector: Selector = make_selector(
-            cfg.selector, self.n_choices, getattr(self, "n_envs", 1), self.seed, self.rng, cfg.ucb_c
+            cfg.selector, self.n_choices, self.n_envs, self.seed, self.rng, cfg.ucb_c
         )
         self.train_high = self.selector.trains_high_level and self.n_choices > 1
         self.advice_buffer: AdviceBuffer | None = None
@@ -141,7 +141,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self._replay_generator = torch.Generator().manual_seed(self.seed + 1)
         self.solo: SoloEpisodes | None = None
         if cfg.solo_budget and self.n_teachers:
-            self.solo = SoloEpisodes(getattr(self, "n_envs", 1), cfg.solo_budget, self.seed)
+            self.solo = SoloEpisodes(self.n_envs, cfg.solo_budget, self.seed)
         self._sde_noise: np.ndarray | None = None
         # (origin, horizon) of the schedules: of the learn call in progress or last made
         # (None before any), and of an interrupted call, set by a resume
