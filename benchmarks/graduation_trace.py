@@ -17,7 +17,7 @@ import argparse
 import gymnasium as gym
 import numpy as np
 import torch
-from user_envs import SUITE, evaluate
+from user_envs import SUITE, evaluate, parse_settings
 
 from tlac import TLAC
 from tlac.algorithms.nets import np_log_softmax
@@ -44,25 +44,29 @@ def main() -> None:
     parser.add_argument("--chunks", type=int, default=10)
     parser.add_argument("--states", type=int, default=300)
     parser.add_argument("--episodes", type=int, default=5)
+    parser.add_argument(
+        "--set", action="append", default=[], metavar="KEY=VALUE", help="a TL-AC setting"
+    )
     args = parser.parse_args()
     if args.chunks < 1 or args.steps < args.chunks:
         parser.error(f"--steps ({args.steps}) must be at least --chunks ({args.chunks}) >= 1")
     torch.set_num_threads(1)
     env = gym.make(args.env)
     teachers = SUITE[args.env](args.seed, env.action_space)
-    model = TLAC(env, teachers=teachers, seed=args.seed)
+    model = TLAC(env, teachers=teachers, seed=args.seed, **parse_settings(args.set))
     states = teacher_trajectory(args.env, teachers[0], args.states)
     discrete = isinstance(env.action_space, gym.spaces.Discrete)
     advice = np.array([teachers[0](s) for s in states])
     names = [*model.teacher_names, "agent"]
-    header = "steps | student alone | high level: " + " / ".join(names)
+    header = "steps | student alone | competence | high level: " + " / ".join(names)
     print(header + (" | agreement" if discrete else ""), flush=True)
     # one learn call per chunk: with the default's constant schedules this is the same run
     for _ in range(args.chunks):
         model.learn(args.steps // args.chunks, progress_bar=False)
         high = np.exp(np_log_softmax(model._act_heads(states)[0])).mean(0)
         alone = evaluate(lambda b: model.predict(b, deterministic=True)[0], args.env, args.episodes)
-        row = f"{model.num_timesteps} | {alone.mean():.1f} | " + " / ".join(
+        solo = model.solo.competence if model.solo is not None else float("nan")
+        row = f"{model.num_timesteps} | {alone.mean():.1f} | {solo:.2f} | " + " / ".join(
             f"{p:.2f}" for p in high
         )
         if discrete:  # the greedy student's agreement with the first teacher on its states

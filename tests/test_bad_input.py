@@ -214,7 +214,14 @@ for key in ("gamma", "gae_lambda"):
 for key in ("n_steps", "batch_size", "n_epochs", "imitation_batch_size", "imitation_buffer_size"):
     for value in ("0", "-3", "2.5", "abc", "true"):
         CLI_CASES.append(([*T, "--set", f"{key}={value}"], key))
-for key in ("normalize_advantage", "use_sde", "solo_critic", "agent_gate", "imitate_after_stop"):
+for key in (
+    "normalize_advantage",
+    "use_sde",
+    "solo_critic",
+    "agent_gate",
+    "imitate_after_stop",
+    "wean_imitation",
+):
     for value in ("maybe", "1", "yes_please"):
         CLI_CASES.append(([*T, "--set", f"{key}={value}"], f"{key} must be true or false"))
 for key, value in (
@@ -222,7 +229,7 @@ for key, value in (
     ("optimizer", "sgd"),
     ("kl_rows", "some"),
     ("obs_encoding", "jpeg"),
-    ("low_level_data", "none"),
+    ("low_level_data", "some"),
     ("trust", "blind"),
 ):
     CLI_CASES.append(([*T, "--set", f"{key}={value}"], f"'{value}'"))

@@ -192,6 +192,33 @@ def test_gate_agent_hands_steps_to_the_agent_only_as_competence_allows():
     assert (solo.gate_agent(np.zeros(4000, int), teacher_logits, agent) == 0).all()
 
 
+def test_low_level_learns_from_the_agents_rows_whatever_the_kl_rule():
+    """``low_level_data: agent`` means the agent's rows (solo episodes included) train the low
+    level's policy gradient; the KL rule only chooses the rows of the stop. Before 2026-11-23
+    the loss rows WERE the KL rows, so the graduate variant's ``kl_rows: high`` zeroed them
+    (its student learnt by imitation alone): ``low_level_data: none`` now says so."""
+    from tlac.algorithms.tlac_update import row_weights
+
+    data = {
+        "log_prob_low": torch.zeros(4),
+        "log_prob_high": torch.zeros(4),
+        "choices": torch.tensor([0, 2, 1, 2]),  # 2 teachers: choice 2 is the agent
+        "solo": torch.tensor([0.0, 0.0, 0.0, 1.0]),
+    }
+    for kl_rows in ("high", "agent", "all"):
+        cfg = TLACConfig.from_settings({"kl_rows": kl_rows, "low_level_data": "agent"})
+        rows = row_weights(cfg, data, 2, True, True, has_advice=True)
+        assert rows.loss[0].tolist() == [0.0, 1.0, 0.0, 1.0]
+        assert rows.loss[1].tolist() == [1.0, 1.0, 1.0, 0.0]  # the high level chose nothing solo
+    rows = row_weights(cfg, data, 2, True, True, has_advice=True)
+    assert rows.kl[0].tolist() == [1.0, 1.0, 1.0, 1.0]  # kl_rows all
+    cfg = TLACConfig.from_settings({})  # the graduate default: imitation alone
+    assert cfg.low_level_data == "none" and cfg.kl_rows == "high"
+    for has_advice in (False, True):
+        rows = row_weights(cfg, data, 2, True, True, has_advice=has_advice)
+        assert rows.loss[0].tolist() == [0.0] * 4
+
+
 def test_advice_buffer_wraps_and_samples_aligned_rows():
     buf = AdviceBuffer(capacity=5, obs_dim=1, advice_shape=(2,), advice_dtype=torch.int64)
     for start in range(0, 12, 4):

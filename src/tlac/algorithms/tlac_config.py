@@ -25,7 +25,9 @@ VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
     "graduate": {
         "distill_coef": 1.0,
         "advice_cost": 0.0,
-        "low_level_data": "agent",
+        # the low level learns from the imitation term alone: what every figure of the graduate
+        # variant in docs/graduation.md measured ("agent" is the candidate being measured)
+        "low_level_data": "none",
         "solo_budget": 0.05,
         "kl_rows": "high",
         "obs_encoding": "auto",
@@ -172,6 +174,11 @@ class TLACConfig:
     """When the target-KL stop ends an update early, spend its remaining gradient steps on the
     imitation term alone (the high level, the low level's policy gradient and the critic stop as
     in the paper). Meant with kl_rows: agent; a candidate, docs/graduation.md."""
+    wean_imitation: bool = False
+    """With solo episodes: multiply the imitation weight by ``1 - competence``, so that the
+    student stops copying its teachers as its solo episodes match their assisted returns, and
+    copies again if it falls back (Kickstarting's annealing, Schmitt et al. 2018, driven by
+    the student's measured competence rather than by time; docs/graduation.md)."""
     agent_gate: bool = False
     """With solo episodes: where the high level picks the agent in an assisted episode, the
     agent acts only with probability competence, else a teacher the high level prefers
@@ -190,8 +197,10 @@ class TLACConfig:
     variant's (graduate auto, paper raw)."""
     low_level_data: str | None = None
     """Which transitions train the low level's policy gradient: all (the paper, Eq. 3 on every
-    executed action) or agent (only where it acted, so every ratio is an importance weight of
-    pi_low's own samples). None: the variant's (graduate agent, paper all)."""
+    executed action), agent (only where it acted, so every ratio is an importance weight of
+    pi_low's own samples) or none (no policy gradient: the imitation term alone trains the low
+    level: what the graduate variant has always computed, although until 2026-11-23 its
+    defaults said agent, docs/graduation.md). None: the variant's (graduate none, paper all)."""
     selector: str = "learned"
     """High level: learned (TL-AC), random or ucb1 (per episode) -- the Figure 11 ablations."""
     ucb_c: float = 1.0
@@ -262,7 +271,7 @@ class TLACConfig:
             ("kl_rows", ["agent", "all", "high"]),
             ("obs_encoding", list(ENCODINGS)),
             ("trust", list(losses.TRUST_RULES)),
-            ("low_level_data", ["all", "agent"]),
+            ("low_level_data", ["all", "agent", "none"]),
             ("vec_env", ["dummy", "subproc"]),
             ("selector", list(SELECTOR_NAMES)),
         ):

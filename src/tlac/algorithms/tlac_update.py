@@ -65,7 +65,9 @@ def row_weights(
     kl = torch.stack([low_kl_rows, high_rows])[:levels]
     loss = None
     if cfg.low_level_data == "agent":  # the low level learns only where the agent acted
-        loss = kl
+        loss = torch.stack([agent_rows, high_rows])[:levels]
+    elif cfg.low_level_data == "none":  # no policy gradient: imitation alone trains the low level
+        loss = torch.stack([torch.zeros(n), high_rows])[:levels]
     elif solo:
         loss = torch.stack([torch.ones(n), high_rows])[:levels]
     # solo_critic False: the critic fits the returns of assisted episodes only

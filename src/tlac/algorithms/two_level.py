@@ -244,6 +244,8 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         # graduation (docs/graduation.md): what every teacher advises in every collected state,
         # imitated by the low level in proportion to the high level's trust in that teacher
         distill = self.distill_schedule(progress_remaining)
+        if cfg.wean_imitation and self.solo is not None:
+            distill *= 1.0 - self.solo.competence
         imitates = self.advice_buffer is not None and distill > 0
         if imitates:
             self.advice_buffer.add(data["obs"], self._advice_on(data["obs"]))
