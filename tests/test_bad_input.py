@@ -221,6 +221,7 @@ for key in (
     "agent_gate",
     "imitate_after_stop",
     "wean_imitation",
+    "solo_greedy",
 ):
     for value in ("maybe", "1", "yes_please"):
         CLI_CASES.append(([*T, "--set", f"{key}={value}"], f"{key} must be true or false"))

@@ -179,6 +179,10 @@ class TLACConfig:
     student stops copying its teachers as its solo episodes match their assisted returns, and
     copies again if it falls back (Kickstarting's annealing, Schmitt et al. 2018, driven by
     the student's measured competence rather than by time; docs/graduation.md)."""
+    solo_greedy: bool = False
+    """With solo episodes: the student acts greedily in them (its most likely action; the Box
+    mean), as it is deployed, so that competence measures the deployed student. Meant with
+    low_level_data none (a greedy action is not a sample of pi_low; docs/graduation.md)."""
     agent_gate: bool = False
     """With solo episodes: where the high level picks the agent in an assisted episode, the
     agent acts only with probability competence, else a teacher the high level prefers
