@@ -219,6 +219,21 @@ def test_low_level_learns_from_the_agents_rows_whatever_the_kl_rule():
         assert rows.loss[0].tolist() == [0.0] * 4
 
 
+def test_solo_greedy_episodes_act_as_the_deployed_student():
+    """``solo_greedy``: in solo episodes the student takes its greedy action (what
+    ``predict(deterministic=True)`` deploys); without it, samples that differ from it."""
+    for greedy in (True, False):
+        model = TLAC(
+            "doorkey", teachers=["random"], seed=0, solo_budget=1.0, solo_greedy=greedy
+        )  # budget 1: every episode is solo
+        ro = model.collect()
+        obs = ro.obs.reshape(-1, ro.obs.shape[-1])
+        assert ro.solo.all()
+        deployed = model.predict(obs.astype(np.uint8), deterministic=True)[0]
+        same = np.mean(ro.actions.reshape(-1) == deployed)
+        assert same == 1.0 if greedy else same < 0.9
+
+
 def test_advice_buffer_wraps_and_samples_aligned_rows():
     buf = AdviceBuffer(capacity=5, obs_dim=1, advice_shape=(2,), advice_dtype=torch.int64)
     for start in range(0, 12, 4):
