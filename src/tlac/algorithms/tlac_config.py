@@ -202,9 +202,10 @@ class TLACConfig:
     low_level_data: str | None = None
     """Which transitions train the low level's policy gradient: all (the paper, Eq. 3 on every
     executed action), agent (only where it acted, so every ratio is an importance weight of
-    pi_low's own samples) or none (no policy gradient: the imitation term alone trains the low
-    level: what the graduate variant has always computed, although until 2026-11-23 its
-    defaults said agent, docs/graduation.md). None: the variant's (graduate none, paper all)."""
+    pi_low's own samples) or none (the imitation term alone trains the low level once the
+    advice buffer holds advice; before that, and without teachers, the agent's rows: what the
+    graduate variant has always computed, although until 2026-11-23 its defaults said agent,
+    docs/graduation.md). None: the variant's (graduate none, paper all)."""
     selector: str = "learned"
     """High level: learned (TL-AC), random or ucb1 (per episode) -- the Figure 11 ablations."""
     ucb_c: float = 1.0

@@ -66,8 +66,11 @@ def row_weights(
     loss = None
     if cfg.low_level_data == "agent":  # the low level learns only where the agent acted
         loss = torch.stack([agent_rows, high_rows])[:levels]
-    elif cfg.low_level_data == "none":  # no policy gradient: imitation alone trains the low level
-        loss = torch.stack([torch.zeros(n), high_rows])[:levels]
+    elif cfg.low_level_data == "none":
+        # imitation alone trains the low level once there is advice to imitate; before that
+        # (the first update) and without teachers, the agent's rows (then it is PPO)
+        low_rows = torch.zeros(n) if has_advice else agent_rows
+        loss = torch.stack([low_rows, high_rows])[:levels]
     elif solo:
         loss = torch.stack([torch.ones(n), high_rows])[:levels]
     # solo_critic False: the critic fits the returns of assisted episodes only
