@@ -236,6 +236,14 @@ def test_solo_greedy_episodes_act_as_the_deployed_student():
         assert same == 1.0 if greedy else same < 0.9
 
 
+def test_wean_imitation_scales_the_imitation_weight_by_one_minus_competence():
+    model = TLAC("doorkey", teachers=["optimal"], seed=0, wean_imitation=True)
+    model.learn(32, progress_bar=False)
+    model.solo.solo_returns.extend([0.75] * 5)  # solo mean 0.75 ...
+    model.solo.floor, model.solo.best_assisted = 0.0, 1.0  # ... of the teachers' 1.0
+    assert model.update(model.collect(), 1.0)["train/distill_coef"] == pytest.approx(0.25)
+
+
 def test_advice_buffer_wraps_and_samples_aligned_rows():
     buf = AdviceBuffer(capacity=5, obs_dim=1, advice_shape=(2,), advice_dtype=torch.int64)
     for start in range(0, 12, 4):

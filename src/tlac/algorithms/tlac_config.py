@@ -26,7 +26,7 @@ VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
         "distill_coef": 1.0,
         "advice_cost": 0.0,
         # the low level learns from the imitation term alone: what every figure of the graduate
-        # variant in docs/graduation.md measured ("agent" is the candidate being measured)
+        # variant in docs/graduation.md measured ("agent" was measured worse there)
         "low_level_data": "none",
         "solo_budget": 0.05,
         "kl_rows": "high",
@@ -178,11 +178,13 @@ class TLACConfig:
     """With solo episodes: multiply the imitation weight by ``1 - competence``, so that the
     student stops copying its teachers as its solo episodes match their assisted returns, and
     copies again if it falls back (Kickstarting's annealing, Schmitt et al. 2018, driven by
-    the student's measured competence rather than by time; docs/graduation.md)."""
+    the student's measured competence rather than by time). Off: measured no better, and with
+    the imitation term alone RMSprop normalises a slowly varying scale away (docs/graduation.md)."""
     solo_greedy: bool = False
     """With solo episodes: the student acts greedily in them (its most likely action; the Box
     mean), as it is deployed, so that competence measures the deployed student. Meant with
-    low_level_data none (a greedy action is not a sample of pi_low; docs/graduation.md)."""
+    low_level_data none (a greedy action is not a sample of pi_low). Off: it steadied Acrobot
+    but moved CartPole's failure to another seed (docs/graduation.md)."""
     agent_gate: bool = False
     """With solo episodes: where the high level picks the agent in an assisted episode, the
     agent acts only with probability competence, else a teacher the high level prefers
