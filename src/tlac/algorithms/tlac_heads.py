@@ -273,6 +273,10 @@ class TLACHeads:
             log_std
         )
 
+    def _greedy_low(self, low_out: np.ndarray) -> np.ndarray:
+        """pi_low's most likely action per row: the argmax, or the Gaussian's mean."""
+        return low_out.argmax(-1) if self.discrete else low_out
+
     def _resample_sde_noise(self, n: int | None = None) -> None:
         assert self.log_std is not None
         std = np.exp(self.log_std.detach().numpy())
@@ -300,12 +304,10 @@ class TLACHeads:
         ``(n, *obs_shape)`` gives ``n`` actions."""
         obs, single = check_observations(observation, self.observation_space)
         _, low_out, _, latent = self._act_heads(obs)
-        if self.discrete:
-            actions = (
-                low_out.argmax(-1) if deterministic else np_sample_categorical(low_out, self.rng)
-            )
-        elif deterministic:
-            actions = low_out
+        if deterministic:
+            actions = self._greedy_low(low_out)
+        elif self.discrete:
+            actions = np_sample_categorical(low_out, self.rng)
         else:
             noise = self.rng.standard_normal(low_out.shape) * np.exp(self._np_low_log_std(latent))
             actions = low_out + noise.astype(np.float32)

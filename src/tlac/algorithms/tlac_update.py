@@ -63,16 +63,16 @@ def row_weights(
     rule = cfg.kl_rows if cfg.kl_rows != "high" or has_advice else "agent"
     low_kl_rows = {"agent": agent_rows, "all": torch.ones(n), "high": torch.zeros(n)}[rule]
     kl = torch.stack([low_kl_rows, high_rows])[:levels]
-    loss = None
-    if cfg.low_level_data == "agent":  # the low level learns only where the agent acted
-        loss = torch.stack([agent_rows, high_rows])[:levels]
-    elif cfg.low_level_data == "none":
-        # imitation alone trains the low level once there is advice to imitate; before that
-        # (the first update) and without teachers, the agent's rows (then it is PPO)
-        low_rows = torch.zeros(n) if has_advice else agent_rows
-        loss = torch.stack([low_rows, high_rows])[:levels]
-    elif solo:
-        loss = torch.stack([torch.ones(n), high_rows])[:levels]
+    # the rows of the low level's policy gradient: "agent", only where it acted; "none", none
+    # once the imitation term has advice to learn from (before that, on the first update, and
+    # in every update without teachers: the agent's rows, so it is PPO); "all", every row
+    low_loss_rows = {
+        "agent": agent_rows,
+        "none": torch.zeros(n) if has_advice else agent_rows,
+        "all": torch.ones(n),
+    }[cfg.low_level_data]
+    every_row = cfg.low_level_data == "all" and not solo  # the paper variant: no weights at all
+    loss = None if every_row else torch.stack([low_loss_rows, high_rows])[:levels]
     # solo_critic False: the critic fits the returns of assisted episodes only
     critic = None if cfg.solo_critic or not solo else high_rows
     # the advice cost: the high level pays for every step a teacher acts (graduate variant)

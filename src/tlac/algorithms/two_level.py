@@ -189,8 +189,8 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 ro.solo[t] = solo
             actions = self._sample_low(low_out, latent)  # line 16 (kept where the agent acts)
             if cfg.solo_greedy and self.solo is not None:  # solo: the student as deployed
-                greedy = low_out.argmax(-1) if self.discrete else low_out
-                actions = np.where(solo.reshape(-1, *[1] * (actions.ndim - 1)), greedy, actions)
+                in_solo = solo.reshape(-1, *[1] * (actions.ndim - 1))
+                actions = np.where(in_solo, self._greedy_low(low_out), actions)
             actions = self._apply_teachers(choices, self._last_obs, actions)  # line 18
 
             new_obs, rewards, dones, infos = self.env.step(self._to_env_actions(actions))  # line 19
