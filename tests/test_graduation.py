@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+from collections import deque
 
 import gymnasium as gym
 import numpy as np
@@ -13,7 +14,13 @@ import torch
 from tlac import TLAC
 from tlac.algorithms import losses
 from tlac.algorithms.encoding import OneHotEncoder, make_encoder
-from tlac.algorithms.graduation import AdviceBuffer, SoloEpisodes, competence, solo_probability
+from tlac.algorithms.graduation import (
+    AdviceBuffer,
+    SoloEpisodes,
+    competence,
+    solo_probability,
+    worth_deploying,
+)
 from tlac.algorithms.two_level import VARIANT_DEFAULTS, TLACConfig
 from tlac.domains import get_domain
 from tlac.errors import ConfigError
@@ -173,6 +180,65 @@ def test_solo_episodes_follow_competence():
     assert solo.probability == 1.0
     flags = solo.start(np.array([True, False, True, False]))
     assert flags[0] and flags[2]
+
+
+def test_solo_window_decides_which_student_is_deployed():
+    """A full window of solo returns within one standard error of the best window's mean
+    deploys the student that played it; a clearly worse window does not, and never lowers
+    the best."""
+    assert worth_deploying(deque([2.0, 4.0]), best=-np.inf) == (True, 3.0)  # the first window
+    assert worth_deploying(deque([1.0, 3.0]), best=3.0) == (False, 3.0)  # 2 < 3 - 1/sqrt(2)
+    assert worth_deploying(deque([2.0, 4.0, 2.0, 4.0]), best=3.4) == (True, 3.4)  # 3 >= 3.4 - 0.5
+    solo = SoloEpisodes(n_envs=1, budget=1.0, seed=0, window=3, min_episodes=1)
+    solo.active[:] = True
+    deploys = [solo.end(0, r) for r in (0.0, 2.0, 4.0, 1.0, 0.0, 0.0)]
+    # full at the 3rd (mean 2), best 7/3 at the 4th, 5/3 (se 0.98) still close, 1/3 not
+    assert deploys == [False, False, True, True, True, False]
+    assert solo.best_solo == pytest.approx(7 / 3)
+    solo.active[:] = False
+    assert solo.end(0, 5.0) is False  # assisted episodes never deploy
+
+
+def _box_model(**settings):
+    env = gym.make("Pendulum-v1")
+    def swing(obs):
+        return np.clip(np.array([-2.0 * obs[2]], dtype=np.float32), -2.0, 2.0)
+    return TLAC(env, teachers=[swing], seed=0, n_steps=8, batch_size=8, **settings)
+
+
+def test_the_kept_student_is_what_predict_deploys_and_save_keeps(tmp_path):
+    """keep_best_student: a snapshot acts exactly as the live student did when it was taken,
+    and goes on acting so after the live weights move on; save/load keeps it. With the
+    setting off (or with no solo episodes: the paper variant) predict uses the live weights."""
+    model = _box_model(normalize_obs=True, obs_encoding="raw")
+    model.learn(64, progress_bar=False)
+    obs = np.stack([model.observation_space.sample() for _ in range(20)])
+    before = model.predict(obs, deterministic=True)[0]
+    model.deployed = model._snapshot_student()
+    assert np.array_equal(model.predict(obs, deterministic=True)[0], before)
+    model.learn(64, progress_bar=False)  # the live weights and the normaliser move on
+    live = model._act_heads(obs)[1]
+    assert not np.allclose(live, before)
+    assert np.array_equal(model.predict(obs, deterministic=True)[0], before)
+    path = model.save(tmp_path / "m.pt")
+    loaded = TLAC.load(path)
+    assert loaded.deployed.num_timesteps == model.deployed.num_timesteps == 64
+    assert np.array_equal(loaded.predict(obs, deterministic=True)[0], before)
+    # solo episodes deploy a student by themselves; the setting off, they do not
+    for keep in (True, False):
+        m = TLAC(
+            gym.make("CartPole-v1"),
+            teachers=[lambda obs: int(obs[2] > 0)],
+            seed=0,
+            solo_budget=1.0,  # every episode solo: the window of 20 fills within 2000 steps
+            keep_best_student=keep,
+        )
+        m.learn(2000, progress_bar=False)
+        assert len(m.solo.solo_returns) == m.solo.solo_returns.maxlen
+        assert (m.deployed is not None) == keep
+    paper = TLAC("doorkey", teachers=["random"], seed=0, variant="paper")
+    paper.learn(64, progress_bar=False)
+    assert paper.solo is None and paper.deployed is None
 
 
 def test_gate_agent_hands_steps_to_the_agent_only_as_competence_allows():

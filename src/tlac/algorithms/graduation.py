@@ -32,9 +32,13 @@ training return collapsed; docs/graduation.md).
 from __future__ import annotations
 
 from collections import deque
+from typing import Any
 
 import numpy as np
 import torch
+
+from tlac.algorithms.nets import tanh_mlp_numpy
+from tlac.algorithms.normalization import Normalizer
 
 
 def solo_probability(competence: float, budget: float) -> float:
@@ -57,6 +61,75 @@ def competence(solo: float, assisted: float, floor: float) -> float:
     return float(np.clip((solo - floor) / (assisted - floor), 0.0, 1.0))
 
 
+def worth_deploying(window: deque[float], best: float) -> tuple[bool, float]:
+    """Whether the student that just played the solo episodes in ``window`` should be the one
+    deployed, and the new best window mean: yes when the window's mean is at least the best
+    mean seen so far minus one standard error of this window (so a later student about as good
+    as the best replaces it, and a lucky early window does not hold on to an unfinished one).
+
+    >>> worth_deploying(deque([1.0, 0.0, 1.0, 1.0]), best=0.9)   # mean 0.75, se ~0.22
+    (True, 0.9)
+    >>> worth_deploying(deque([0.0, 0.0, 1.0, 0.0]), best=0.9)   # mean 0.25, se ~0.22
+    (False, 0.9)
+    """
+    returns = np.asarray(window, dtype=np.float64)
+    mean = float(returns.mean())
+    best = max(best, mean)
+    return bool(mean >= best - float(returns.std()) / np.sqrt(len(returns))), best
+
+
+class StudentSnapshot:
+    """The student as it was at one moment: a frozen copy of the low level's layers, its Box
+    log-std and the observation normaliser's statistics. With ``keep_best_student`` the model
+    deploys (``predict``) the last student whose solo episodes were about as good as its best
+    ones (:func:`worth_deploying`), not whatever the last update left: training goes on from
+    the live weights, but a late collapse of the live student (measured on CartPole and Acrobot,
+    docs/graduation.md) no longer reaches the user. Model selection on the episodes the student
+    played alone during training, within the training budget (as SB3's EvalCallback keeps a
+    best model, but without extra evaluation episodes)."""
+
+    def __init__(
+        self,
+        layers: list[tuple[np.ndarray, np.ndarray]],
+        log_std: np.ndarray | None,
+        normalizer: Normalizer | None,
+        num_timesteps: int,
+    ):
+        self.layers, self.log_std, self.normalizer = layers, log_std, normalizer
+        self.num_timesteps = num_timesteps
+
+    def net_input(self, obs: np.ndarray) -> np.ndarray:
+        """Raw ``(n, obs_dim)`` observations, normalised as they were at the snapshot."""
+        return obs if self.normalizer is None else self.normalizer.obs_numpy(obs)
+
+    def forward(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The low level's ``(output, last hidden layer)`` on (encoded) inputs ``x``."""
+        return tanh_mlp_numpy(self.layers, x)
+
+    def state(self) -> dict[str, Any]:
+        """Tensors and numbers only (a checkpoint of it loads with ``weights_only=True``)."""
+        return {
+            "layers": [[torch.from_numpy(w), torch.from_numpy(b)] for w, b in self.layers],
+            "log_std": None if self.log_std is None else torch.from_numpy(self.log_std),
+            "normalizer": None if self.normalizer is None else self.normalizer.state(),
+            "num_timesteps": self.num_timesteps,
+        }
+
+    @classmethod
+    def from_state(cls, state: dict[str, Any], normalizer: Normalizer | None) -> StudentSnapshot:
+        """Rebuild from :meth:`state`; ``normalizer``: a copy to load the saved statistics into
+        (the model's own, copied), or None."""
+        if normalizer is not None:
+            normalizer.set_state(state["normalizer"])
+        log_std = state["log_std"]
+        return cls(
+            [(w.numpy().copy(), b.numpy().copy()) for w, b in state["layers"]],
+            None if log_std is None else log_std.numpy().copy(),
+            normalizer,
+            int(state["num_timesteps"]),
+        )
+
+
 class SoloEpisodes:
     """Decides, at every episode start, whether the student plays that episode alone.
 
@@ -76,6 +149,7 @@ class SoloEpisodes:
         self.min_episodes = min_episodes
         self.floor = np.inf
         self.best_assisted = -np.inf
+        self.best_solo = -np.inf  # the best mean of a full window of solo returns so far
 
     @property
     def competence(self) -> float:
@@ -95,15 +169,21 @@ class SoloEpisodes:
             self.active[starting] = self.rng.random(len(starting)) < self.probability
         return self.active
 
-    def end(self, env_index: int, episode_return: float) -> None:
+    def end(self, env_index: int, episode_return: float) -> bool:
+        """Record a finished episode's return. True when it was a solo episode after which the
+        student is worth deploying (:func:`worth_deploying` on the window of solo returns)."""
         if self.active[env_index]:
             self.solo_returns.append(float(episode_return))
             if len(self.solo_returns) >= self.min_episodes:
                 self.floor = min(self.floor, float(np.mean(self.solo_returns)))
+            if len(self.solo_returns) == self.solo_returns.maxlen:
+                deploy, self.best_solo = worth_deploying(self.solo_returns, self.best_solo)
+                return deploy
         else:
             self.assisted_returns.append(float(episode_return))
             if len(self.assisted_returns) >= self.min_episodes:
                 self.best_assisted = max(self.best_assisted, float(np.mean(self.assisted_returns)))
+        return False
 
     def gate_agent(self, choices: np.ndarray, teacher_logits: np.ndarray, agent: int) -> np.ndarray:
         """Where the high level chose the ``agent`` in an assisted episode, keep it with

@@ -115,15 +115,29 @@ class StackedMLP(nn.Module):
         """:meth:`forward` without autograd, in NumPy, for acting. Padded weights are exactly
         zero (the mask is applied in every training forward pass, so gradients never reach
         them), hence no mask is needed here."""
-        h = x[None]
-        last = len(self._np_layers) - 1
-        last_hidden = h
-        for i, (w, b) in enumerate(self._np_layers):
-            h = np.matmul(h, w) + b
-            if i < last:
-                h = np.tanh(h)
-                last_hidden = h
-        return h, last_hidden
+        return tanh_mlp_numpy(self._np_layers, x[None])
+
+    def member_numpy(self, m: int) -> list[tuple[np.ndarray, np.ndarray]]:
+        """A copy of member ``m``'s layers as ``(weight, bias)`` NumPy arrays (padded as in the
+        stack), for :func:`tanh_mlp_numpy`: a frozen snapshot of one network."""
+        return [(w[m].copy(), b[m].copy()) for w, b in self._np_layers]
+
+
+def tanh_mlp_numpy(
+    layers: list[tuple[np.ndarray, np.ndarray]], x: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """A tanh MLP's ``(output, last hidden layer)`` in NumPy: ``h = x @ w + b`` per layer, tanh
+    between layers. Stacked ``(M, in, out)`` weights with ``x`` of shape ``(1, B, in)`` give
+    every member at once; one member's ``(in, out)`` weights with ``(B, in)`` give that one."""
+    h = x
+    last = len(layers) - 1
+    last_hidden = h
+    for i, (w, b) in enumerate(layers):
+        h = np.matmul(h, w) + b
+        if i < last:
+            h = np.tanh(h)
+            last_hidden = h
+    return h, last_hidden
 
 
 def np_log_softmax(logits: np.ndarray) -> np.ndarray:

@@ -8,6 +8,7 @@ algorithm itself (collect, update, learn) is in two_level.py."""
 
 from __future__ import annotations
 
+import copy
 from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
@@ -19,6 +20,7 @@ from torch import nn
 from tlac.algorithms import losses
 from tlac.algorithms.common import check_observations, query_teachers
 from tlac.algorithms.encoding import make_encoder
+from tlac.algorithms.graduation import StudentSnapshot
 from tlac.algorithms.nets import (
     CRITIC,
     HIGH,
@@ -54,6 +56,7 @@ class TLACHeads:
     rng: np.random.Generator
     train_high: bool
     selector: Selector
+    deployed: StudentSnapshot | None
     _sde_noise: np.ndarray | None
 
     def _build_networks(self, obs_space: gym.Space, action_space: gym.Space) -> None:
@@ -170,8 +173,10 @@ class TLACHeads:
             return gsde_log_std(latent, self.log_std)
         return self.log_std.expand(latent.shape[0], -1)
 
-    def _np_low_log_std(self, latent: np.ndarray) -> np.ndarray:
-        log_std = self.log_std.detach().numpy()  # type: ignore[union-attr]
+    def _np_low_log_std(self, latent: np.ndarray, log_std: np.ndarray | None = None) -> np.ndarray:
+        """The Box log-std per row: of the live low level, or the given (a snapshot's)."""
+        if log_std is None:
+            log_std = self.log_std.detach().numpy()  # type: ignore[union-attr]
         if self.config.use_sde:
             return np_gsde_log_std(latent, log_std)
         return np.broadcast_to(log_std, (latent.shape[0], log_std.shape[-1]))
@@ -273,6 +278,31 @@ class TLACHeads:
             log_std
         )
 
+    def _student_heads(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """The deployed student's (low output, last hidden layer, Box log-std or None) on raw
+        observations: the kept snapshot (``keep_best_student``) where there is one, else the
+        live low level."""
+        snap = self.deployed
+        if snap is None:
+            _, low_out, _, latent = self._act_heads(obs)
+            return low_out, latent, None
+        x = snap.net_input(np.asarray(obs, dtype=np.float32).reshape(-1, self.obs_dim))
+        out, hidden = snap.forward(x if self.encoder is None else self.encoder.numpy(x))
+        return (
+            out[:, : self.net.out_dims[LOW]],
+            hidden[:, : self.config.net_arch_low[-1]],
+            snap.log_std,
+        )
+
+    def _snapshot_student(self) -> StudentSnapshot:
+        """A frozen copy of the live student (what :meth:`predict` deploys)."""
+        return StudentSnapshot(
+            self.net.member_numpy(LOW),
+            None if self.log_std is None else self.log_std.detach().numpy().copy(),
+            copy.deepcopy(self.normalizer),
+            self.num_timesteps,
+        )
+
     def _greedy_low(self, low_out: np.ndarray) -> np.ndarray:
         """pi_low's most likely action per row: the argmax, or the Gaussian's mean."""
         return low_out.argmax(-1) if self.discrete else low_out
@@ -303,13 +333,15 @@ class TLACHeads:
         which tlac's evaluations and targets use); one observation gives one action, a batch
         ``(n, *obs_shape)`` gives ``n`` actions."""
         obs, single = check_observations(observation, self.observation_space)
-        _, low_out, _, latent = self._act_heads(obs)
+        low_out, latent, log_std = self._student_heads(obs)
         if deterministic:
             actions = self._greedy_low(low_out)
         elif self.discrete:
             actions = np_sample_categorical(low_out, self.rng)
         else:
-            noise = self.rng.standard_normal(low_out.shape) * np.exp(self._np_low_log_std(latent))
+            noise = self.rng.standard_normal(low_out.shape) * np.exp(
+                self._np_low_log_std(latent, log_std)
+            )
             actions = low_out + noise.astype(np.float32)
         env_actions = self._to_env_actions(actions)
         return (env_actions[0] if single else env_actions), None

@@ -6,6 +6,7 @@ or without the training state that an exact resume needs (:class:`TLACPersistenc
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from collections.abc import Sequence
 from pathlib import Path
@@ -24,6 +25,7 @@ from tlac.algorithms.common import (
     space_from_data,
     space_to_data,
 )
+from tlac.algorithms.graduation import StudentSnapshot
 from tlac.algorithms.resume import (
     attributes_state,
     generator_states,
@@ -197,6 +199,7 @@ class TLACPersistence:
             "log_std": None if self.log_std is None else self.log_std.detach().clone(),
             "optimizer": self.optimizer.state_dict(),
             "normalizer": None if self.normalizer is None else self.normalizer.state(),
+            "deployed": None if self.deployed is None else self.deployed.state(),
         }
         if training_state:
             state["training"] = self._training_state()
@@ -306,6 +309,10 @@ class TLACPersistence:
             if state.get("normalizer") is None:
                 raise ConfigError(f"{path} was saved without its normalisation statistics")
             model.normalizer.set_state(state["normalizer"])
+        if state.get("deployed") is not None:  # the kept student (keep_best_student)
+            model.deployed = StudentSnapshot.from_state(
+                state["deployed"], copy.deepcopy(model.normalizer)
+            )
         if resume:
             if "training" not in state:
                 raise ConfigError(

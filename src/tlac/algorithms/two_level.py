@@ -35,7 +35,7 @@ from tlac.algorithms.common import (
     make_progress_bar,
     stop_if_not_finite,
 )
-from tlac.algorithms.graduation import AdviceBuffer, SoloEpisodes
+from tlac.algorithms.graduation import AdviceBuffer, SoloEpisodes, StudentSnapshot
 from tlac.algorithms.nets import LOW, np_log_softmax
 from tlac.algorithms.rollout import Rollout, compute_gae
 from tlac.algorithms.tlac_config import VARIANT_DEFAULTS, TLACConfig, resolve_settings  # noqa: F401  (VARIANT_DEFAULTS: re-exported)
@@ -142,6 +142,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self.solo: SoloEpisodes | None = None
         if cfg.solo_budget and self.n_teachers:
             self.solo = SoloEpisodes(self.n_envs, cfg.solo_budget, self.seed)
+        self.deployed: StudentSnapshot | None = None  # None: predict uses the live weights
         self._sde_noise: np.ndarray | None = None
         # (origin, horizon) of the schedules: of the learn call in progress or last made
         # (None before any), and of an interrupted call, set by a resume
@@ -206,7 +207,9 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                     rewards[i] += cfg.gamma * float(self._act_heads(final)[2][0])
                 self.selector.episode_end(int(i), float(self._episode_returns[i]))
                 if self.solo is not None:
-                    self.solo.end(int(i), float(self._episode_returns[i]))
+                    if self.solo.end(int(i), float(self._episode_returns[i])):
+                        if cfg.keep_best_student:  # the student to deploy (graduation.py)
+                            self.deployed = self._snapshot_student()
                 self._episode_returns[i] = 0.0
 
             ro.obs[t] = obs  # line 20: the transition and both levels' log-probabilities
