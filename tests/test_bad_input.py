@@ -222,6 +222,7 @@ for key in (
     "imitate_after_stop",
     "wean_imitation",
     "solo_greedy",
+    "keep_best_student",
 ):
     for value in ("maybe", "1", "yes_please"):
         CLI_CASES.append(([*T, "--set", f"{key}={value}"], f"{key} must be true or false"))

@@ -236,6 +236,16 @@ def test_the_kept_student_is_what_predict_deploys_and_save_keeps(tmp_path):
         m.learn(2000, progress_bar=False)
         assert len(m.solo.solo_returns) == m.solo.solo_returns.maxlen
         assert (m.deployed is not None) == keep
+    # the end of learn deploys the live student if its latest window qualifies, else keeps
+    m = TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: int(obs[2] > 0)], seed=0, solo_budget=1.0)
+    m.learn(2000, progress_bar=False)
+    m.solo.solo_returns.extend([0.0] * 20)
+    m.solo.best_solo, kept = 100.0, m.deployed
+    m.learn(16, progress_bar=False)
+    assert m.deployed is kept  # far below the best window
+    m.solo.solo_returns.extend([1000.0] * 20)  # a new best window, whatever ends next
+    m.learn(16, progress_bar=False)
+    assert m.deployed.num_timesteps == m.num_timesteps == 2032
     paper = TLAC("doorkey", teachers=["random"], seed=0, variant="paper")
     paper.learn(64, progress_bar=False)
     assert paper.solo is None and paper.deployed is None

@@ -449,6 +449,9 @@ def _train_locked(
         "final_eval_mean": eval_rows[-1][1] if eval_rows else None,
         "final_eval_std": eval_rows[-1][2] if eval_rows else None,
     }
+    kept = getattr(model, "deployed", None)
+    if kept is not None:  # keep_best_student: the step whose student predict deploys
+        result["student_kept_from_step"] = int(kept.num_timesteps)
     venv.close()
     probe_env.close()
     atomic_write_text(out / RESULT_FILE, json.dumps(result, indent=2))

@@ -176,14 +176,20 @@ class SoloEpisodes:
             self.solo_returns.append(float(episode_return))
             if len(self.solo_returns) >= self.min_episodes:
                 self.floor = min(self.floor, float(np.mean(self.solo_returns)))
-            if len(self.solo_returns) == self.solo_returns.maxlen:
-                deploy, self.best_solo = worth_deploying(self.solo_returns, self.best_solo)
-                return deploy
+            return self.latest_is_worth_deploying()
         else:
             self.assisted_returns.append(float(episode_return))
             if len(self.assisted_returns) >= self.min_episodes:
                 self.best_assisted = max(self.best_assisted, float(np.mean(self.assisted_returns)))
         return False
+
+    def latest_is_worth_deploying(self) -> bool:
+        """Whether the student that played the recent solo episodes is worth deploying
+        (:func:`worth_deploying` on a full window of solo returns; updates the best mean)."""
+        if len(self.solo_returns) < self.solo_returns.maxlen:
+            return False
+        deploy, self.best_solo = worth_deploying(self.solo_returns, self.best_solo)
+        return deploy
 
     def gate_agent(self, choices: np.ndarray, teacher_logits: np.ndarray, agent: int) -> np.ndarray:
         """Where the high level chose the ``agent`` in an assisted episode, keep it with

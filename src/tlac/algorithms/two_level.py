@@ -207,9 +207,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                     rewards[i] += cfg.gamma * float(self._act_heads(final)[2][0])
                 self.selector.episode_end(int(i), float(self._episode_returns[i]))
                 if self.solo is not None:
-                    if self.solo.end(int(i), float(self._episode_returns[i])):
-                        if cfg.keep_best_student:  # the student to deploy (graduation.py)
-                            self.deployed = self._snapshot_student()
+                    self._deploy_if_worth(self.solo.end(int(i), float(self._episode_returns[i])))
                 self._episode_returns[i] = 0.0
 
             ro.obs[t] = obs  # line 20: the transition and both levels' log-probabilities
@@ -355,6 +353,13 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         stop_if_not_finite(norm, "TL-AC", self.num_timesteps, "gradient norm")
         self.optimizer.step()
 
+    def _deploy_if_worth(self, worth: bool) -> None:
+        """keep_best_student: make the live student the one ``predict`` deploys when its recent
+        solo episodes say it is worth it (after each solo episode, and at the end of ``learn``:
+        tlac.algorithms.graduation.worth_deploying)."""
+        if worth and self.config.keep_best_student:
+            self.deployed = self._snapshot_student()
+
     def _replayed_imitation(self) -> torch.Tensor:
         """The imitation term on a minibatch of states replayed from the advice buffer."""
         assert self.advice_buffer is not None
@@ -418,6 +423,8 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                         progress_text(episodes, usage, self.teacher_names), refresh=False
                     )
                     usage[:] = 0
+            if self.num_timesteps >= end_steps:  # before the callbacks' last evaluation
+                self._deploy_if_worth(self.solo is not None and self.solo.latest_is_worth_deploying())
             if not callbacks.after_update():
                 break
         callbacks.end()

@@ -145,8 +145,10 @@ def _print_result(result: dict[str, Any], eval_episodes: int, out: Path) -> None
         train_return = result["final_train_return_mean"]
         print(f"training return, last episodes (teachers included): {train_return:.3f}")
     if result["final_eval_mean"] is not None:
+        kept = result.get("student_kept_from_step")
+        source = "" if kept is None else f"; the student kept from step {kept}"
         print(
-            f"student alone (no teachers, greedy), {eval_episodes} episodes: "
+            f"student alone (no teachers, greedy{source}), {eval_episodes} episodes: "
             f"{result['final_eval_mean']:.3f} +- {result['final_eval_std']:.3f}"
         )
     print(f"run folder: {out} (episodes.csv, teacher_usage.csv, eval.csv, config.yaml, model)")
