@@ -61,21 +61,28 @@ def competence(solo: float, assisted: float, floor: float) -> float:
     return float(np.clip((solo - floor) / (assisted - floor), 0.0, 1.0))
 
 
-def worth_deploying(window: deque[float], best: float) -> tuple[bool, float]:
+def worth_deploying(window: deque[float], best: float, n_windows: float = 1.0) -> tuple[bool, float]:
     """Whether the student that just played the solo episodes in ``window`` should be the one
-    deployed, and the new best window mean: yes when the window's mean is at least the best
-    mean seen so far minus one standard error of this window (so a later student about as good
-    as the best replaces it, and a lucky early window does not hold on to an unfinished one).
+    deployed, and the new best window mean. Yes unless the window's mean is clearly below
+    the best mean seen so far: below it by more than ``(1 + sqrt(2 ln n_windows))`` standard
+    errors of this window. The best of ``n_windows`` noisy window means overshoots the
+    student's true level by about ``sqrt(2 ln n_windows)`` standard errors (the expected
+    maximum of that many Gaussians), so without that term a student that played many solo
+    episodes would be held to a lucky peak; ``n_windows`` counts disjoint windows' worth of
+    solo episodes.
 
     >>> worth_deploying(deque([1.0, 0.0, 1.0, 1.0]), best=0.9)   # mean 0.75, se ~0.22
     (True, 0.9)
     >>> worth_deploying(deque([0.0, 0.0, 1.0, 0.0]), best=0.9)   # mean 0.25, se ~0.22
     (False, 0.9)
+    >>> worth_deploying(deque([0.0, 0.0, 1.0, 0.0]), best=0.9, n_windows=100)  # slack 4 se
+    (True, 0.9)
     """
     returns = np.asarray(window, dtype=np.float64)
     mean = float(returns.mean())
     best = max(best, mean)
-    return bool(mean >= best - float(returns.std()) / np.sqrt(len(returns))), best
+    slack = 1.0 + np.sqrt(2.0 * np.log(max(n_windows, 1.0)))
+    return bool(mean >= best - slack * float(returns.std()) / np.sqrt(len(returns))), best
 
 
 class StudentSnapshot:
@@ -150,6 +157,7 @@ class SoloEpisodes:
         self.floor = np.inf
         self.best_assisted = -np.inf
         self.best_solo = -np.inf  # the best mean of a full window of solo returns so far
+        self.solo_episodes = 0  # solo episodes ended so far
 
     @property
     def competence(self) -> float:
@@ -173,6 +181,7 @@ class SoloEpisodes:
         """Record a finished episode's return. True when it was a solo episode after which the
         student is worth deploying (:func:`worth_deploying` on the window of solo returns)."""
         if self.active[env_index]:
+            self.solo_episodes += 1
             self.solo_returns.append(float(episode_return))
             if len(self.solo_returns) >= self.min_episodes:
                 self.floor = min(self.floor, float(np.mean(self.solo_returns)))
@@ -188,7 +197,8 @@ class SoloEpisodes:
         (:func:`worth_deploying` on a full window of solo returns; updates the best mean)."""
         if len(self.solo_returns) < self.solo_returns.maxlen:
             return False
-        deploy, self.best_solo = worth_deploying(self.solo_returns, self.best_solo)
+        n_windows = self.solo_episodes / len(self.solo_returns)
+        deploy, self.best_solo = worth_deploying(self.solo_returns, self.best_solo, n_windows)
         return deploy
 
     def gate_agent(self, choices: np.ndarray, teacher_logits: np.ndarray, agent: int) -> np.ndarray:

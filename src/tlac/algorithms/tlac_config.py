@@ -168,9 +168,9 @@ class TLACConfig:
     DAgger's relabelling with the preferred teacher; a candidate, docs/graduation.md)."""
     keep_best_student: bool = True
     """With solo episodes: ``predict`` (the student a user deploys) uses the last snapshot of
-    the low level taken when its window of 20 solo returns was within one standard error of
-    the best such window so far (checked after every solo episode and at the end of
-    ``learn``; tlac.algorithms.graduation), rather than whatever the last update left;
+    the low level taken when its window of 20 solo returns was not clearly below the best
+    such window so far (checked after every solo episode and at the end of ``learn``;
+    tlac.algorithms.graduation.worth_deploying), rather than whatever the last update left;
     training itself is unchanged. False: the live weights. Without solo episodes (the paper
     variant) ``predict`` always uses the live weights."""
     solo_critic: bool = True
