@@ -24,7 +24,9 @@ def window_means(pattern: str, window: int, start: int, steps: int) -> np.ndarra
     per_run = []
     for run in runs:
         ep = pd.read_csv(f"{run}/episodes.csv")
-        per_run.append([ep["return"][(ep.timestep >= t) & (ep.timestep < t + window)].mean() for t in edges])
+        per_run.append(
+            [ep["return"][(ep.timestep >= t) & (ep.timestep < t + window)].mean() for t in edges]
+        )
     return np.nanmean(np.array(per_run), axis=0)
 
 

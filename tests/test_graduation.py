@@ -203,8 +203,10 @@ def test_solo_window_decides_which_student_is_deployed():
 
 def _box_model(**settings):
     env = gym.make("Pendulum-v1")
+
     def swing(obs):
         return np.clip(np.array([-2.0 * obs[2]], dtype=np.float32), -2.0, 2.0)
+
     return TLAC(env, teachers=[swing], seed=0, n_steps=8, batch_size=8, **settings)
 
 
@@ -239,7 +241,9 @@ def test_the_kept_student_is_what_predict_deploys_and_save_keeps(tmp_path):
         assert len(m.solo.solo_returns) == m.solo.solo_returns.maxlen
         assert (m.deployed is not None) == keep
     # the end of learn deploys the live student if its latest window qualifies, else keeps
-    m = TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: int(obs[2] > 0)], seed=0, solo_budget=1.0)
+    m = TLAC(
+        gym.make("CartPole-v1"), teachers=[lambda obs: int(obs[2] > 0)], seed=0, solo_budget=1.0
+    )
     m.learn(2000, progress_bar=False)
     m.solo.solo_returns.extend([0.0] * 20)
     m.solo.best_solo, kept = 100.0, m.deployed

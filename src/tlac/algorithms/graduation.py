@@ -61,7 +61,9 @@ def competence(solo: float, assisted: float, floor: float) -> float:
     return float(np.clip((solo - floor) / (assisted - floor), 0.0, 1.0))
 
 
-def worth_deploying(window: deque[float], best: float, n_windows: float = 1.0) -> tuple[bool, float]:
+def worth_deploying(
+    window: deque[float], best: float, n_windows: float = 1.0
+) -> tuple[bool, float]:
     """Whether the student that just played the solo episodes in ``window`` should be the one
     deployed, and the new best window mean. Yes unless the window's mean is clearly below
     the best mean seen so far: below it by more than ``(1 + sqrt(2 ln n_windows))`` standard

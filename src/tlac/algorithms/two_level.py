@@ -424,7 +424,9 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                     )
                     usage[:] = 0
             if self.num_timesteps >= end_steps:  # before the callbacks' last evaluation
-                self._deploy_if_worth(self.solo is not None and self.solo.latest_is_worth_deploying())
+                self._deploy_if_worth(
+                    self.solo is not None and self.solo.latest_is_worth_deploying()
+                )
             if not callbacks.after_update():
                 break
         callbacks.end()
