@@ -117,19 +117,27 @@ def _weighted_mean(x: torch.Tensor, weights: torch.Tensor | None) -> torch.Tenso
     return (x * weights).sum(dim=1) / weights.sum(dim=1).clamp(min=1.0)
 
 
-TRUST_RULES = ("soft", "max")
+TRUST_RULES = ("soft", "max", "share")
 
 
-def teacher_trust(teacher_logits: torch.Tensor, rule: str) -> torch.Tensor:
-    """``(B, K)`` weights of the teachers in each state from the high level's logits of the
-    teachers: ``soft`` = their softmax, ``max`` = 1 for the preferred teacher, 0 elsewhere.
+def teacher_trust(high_logits: torch.Tensor, rule: str, n_teachers: int) -> torch.Tensor:
+    """``(B, K)`` weights of the ``K = n_teachers`` teachers in each state from the high level's
+    logits ``(B, K + 1)`` (the teachers', then the agent's): ``soft`` = the softmax of the
+    teachers' logits alone, ``max`` = 1 for the preferred teacher, 0 elsewhere, ``share`` = the
+    teachers' probabilities among ALL choices, so that where the high level prefers the agent
+    the imitation weighs little (the weights sum to 1 - pi_high(agent|s)).
 
-    >>> logits = torch.tensor([[0.0, 1.0], [2.0, 2.0]])
-    >>> teacher_trust(logits, "max").tolist()   # a tie goes to the first teacher
+    >>> logits = torch.tensor([[0.0, 1.0, 0.0], [2.0, 2.0, 0.0]])
+    >>> teacher_trust(logits, "max", 2).tolist()   # a tie goes to the first teacher
     [[0.0, 1.0], [1.0, 0.0]]
-    >>> [round(v, 3) for v in teacher_trust(logits, "soft")[0].tolist()]
+    >>> [round(v, 3) for v in teacher_trust(logits, "soft", 2)[0].tolist()]
     [0.269, 0.731]
+    >>> [round(v, 3) for v in teacher_trust(logits, "share", 2)[0].tolist()]  # e / (2 + e)
+    [0.212, 0.576]
     """
+    if rule == "share":
+        return torch.softmax(high_logits, -1)[:, :n_teachers]
+    teacher_logits = high_logits[:, :n_teachers]
     if rule == "max":
         return torch.nn.functional.one_hot(teacher_logits.argmax(-1), teacher_logits.shape[-1]).to(
             teacher_logits.dtype

@@ -164,8 +164,11 @@ class TLACConfig:
     weaker than at 0.1, far below the policy gradient's (docs/graduation.md)."""
     trust: str = "soft"
     """How the imitation term weighs the teachers in a state: soft (the high level's
-    probabilities among the teachers) or max (the teacher the high level prefers there, alone:
-    DAgger's relabelling with the preferred teacher; a candidate, docs/graduation.md)."""
+    probabilities among the teachers), max (the teacher the high level prefers there, alone:
+    DAgger's relabelling with the preferred teacher) or share (the teachers' probabilities
+    among all choices, the agent included, so that the student copies little where the high
+    level prefers it; meant with low_level_data agent). max and share are candidates,
+    docs/graduation.md."""
     keep_best_student: bool = True
     """With solo episodes: ``predict`` (the student a user deploys) uses the last snapshot of
     the low level taken when its window of 20 solo returns was not clearly below the best

@@ -232,8 +232,9 @@ class TLACHeads:
         advice: torch.Tensor,
     ) -> torch.Tensor:
         """DAgger on replayed states: each teacher's advice weighted by the high level's trust
-        in that teacher (softmax over the teachers' logits only, no gradient)."""
-        trust = losses.teacher_trust(high_logits.detach()[:, : self.n_teachers], self.config.trust)
+        in that teacher (``trust``: by default the softmax over the teachers' logits only; no
+        gradient)."""
+        trust = losses.teacher_trust(high_logits.detach(), self.config.trust, self.n_teachers)
         return losses.imitation_loss(self._advice_nll(low_out, latent, advice), trust)
 
     def _mean_entropies(
