@@ -115,6 +115,16 @@ def test_imitation_loss_hand_checked():
     assert float(losses.imitation_loss(nll, trust)) == pytest.approx((0.5 + 1.0 + 3.25) / 3)
 
 
+def test_teacher_trust_rules_hand_checked():
+    # 2 teachers and the agent; logits log(1), log(3), log(4) -> probabilities 1/8, 3/8, 4/8
+    logits = torch.log(torch.tensor([[1.0, 3.0, 4.0]]))
+    soft = losses.teacher_trust(logits, "soft", 2)  # among the teachers only: 1/4, 3/4
+    assert soft.tolist() == [[pytest.approx(0.25), pytest.approx(0.75)]]
+    share = losses.teacher_trust(logits, "share", 2)  # among all choices: the agent keeps 1/2
+    assert share.tolist() == [[pytest.approx(0.125), pytest.approx(0.375)]]
+    assert losses.teacher_trust(logits, "max", 2).tolist() == [[0.0, 1.0]]
+
+
 def test_scaled_squared_error_hand_checked():
     mean = torch.tensor([[0.5, -1.0]])
     targets = torch.tensor([[[1.5, 1.0]]])
