@@ -19,6 +19,7 @@ import argparse
 import copy
 import json
 import os
+import shlex
 import sys
 import time
 from collections.abc import Callable
@@ -303,7 +304,7 @@ def main() -> None:
                 flush=True,
             )
     table = report(args.out, args.envs)
-    command = "python benchmarks/user_envs.py " + " ".join(sys.argv[1:])
+    command = shlex.join(["python", "benchmarks/user_envs.py", *sys.argv[1:]])
     (args.out / "report.md").write_text(f"Made by `{command}`\n\n{table}")
     print(table)
 
