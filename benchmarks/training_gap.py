@@ -14,9 +14,12 @@ import glob
 import numpy as np
 import pandas as pd
 
+from tlac.experiments.metrics import window_mean
+
 
 def window_means(pattern: str, window: int, start: int, steps: int) -> np.ndarray:
-    """Seed-mean training return in each window [t, t + window), t = start, start + window, ..."""
+    """Seed-mean training return in each window (t, t + window], t = start, start + window, ...
+    (episodes by the step they ended at, as the reports count them)."""
     runs = sorted(glob.glob(pattern))
     if not runs:
         raise SystemExit(f"error: no run folder matches {pattern!r}")
@@ -24,9 +27,7 @@ def window_means(pattern: str, window: int, start: int, steps: int) -> np.ndarra
     per_run = []
     for run in runs:
         ep = pd.read_csv(f"{run}/episodes.csv")
-        per_run.append(
-            [ep["return"][(ep.timestep >= t) & (ep.timestep < t + window)].mean() for t in edges]
-        )
+        per_run.append([window_mean(ep.timestep, ep["return"], t, t + window) for t in edges])
     return np.nanmean(np.array(per_run), axis=0)
 
 
