@@ -167,13 +167,38 @@ def dropout_weight_decay(
 
 
 # --------------------------------------------------------------------------- networks
+def dropout_mask(
+    rng: np.random.Generator, shape: tuple[int, ...], keep_prob: float
+) -> torch.Tensor:
+    """An inverted-dropout mask of ``shape``: each element ``1 / keep_prob`` with probability
+    ``keep_prob`` (32 random bits from ``rng`` compared with ``keep_prob * 2**32``), else 0.
+
+    The same masks as ``F.dropout(h, 1 - keep_prob)`` in distribution, about 5x faster on one
+    CPU core than torch's per-element Bernoulli draws, which took a third of AC-Teach's time.
+
+    >>> m = dropout_mask(np.random.default_rng(0), (1000, 100), 0.9)
+    >>> m.shape, torch.unique(m).tolist() == [0.0, np.float32(1 / 0.9)]
+    (torch.Size([1000, 100]), True)
+    >>> round(float((m > 0).float().mean()), 2)
+    0.9
+    """
+    n = math.prod(shape)
+    if keep_prob >= 1.0:
+        return torch.ones(shape)
+    bits = rng.bit_generator.random_raw((n + 1) // 2).view(np.uint32)[:n]
+    keep = bits < np.uint32(round(keep_prob * 2**32))
+    return torch.from_numpy(np.multiply(keep, np.float32(1.0 / keep_prob))).view(shape)
+
+
 class BayesianCritic(nn.Module):
     """AC-Teach's critic: Linear + LayerNorm + ReLU per hidden layer, dropout after every
     hidden activation in the MC passes only, the action (if any) concatenated after the first
     hidden layer, a final linear layer initialised in ``U(-3e-3, 3e-3)``.
 
     ``forward(obs, action, samples=0)`` is the deterministic pass ``(B, out)``;
-    ``samples=K`` gives ``K`` dropout samples ``(K, B, out)`` with independent masks."""
+    ``samples=K`` gives ``K`` dropout samples ``(K, B, out)`` with independent masks, drawn
+    from ``rng`` (:func:`dropout_mask`; AC-Teach passes its own generator, so that a seed
+    fixes them and a checkpoint resumes them)."""
 
     def __init__(
         self,
@@ -183,9 +208,11 @@ class BayesianCritic(nn.Module):
         hidden: list[int],
         keep_prob: float,
         layer_norm: bool = True,
+        rng: np.random.Generator | None = None,
     ):
         super().__init__()
         self.keep_prob = keep_prob
+        self.rng = np.random.default_rng() if rng is None else rng
         self.linears = nn.ModuleList()
         self.norms = nn.ModuleList()
         last = obs_dim
@@ -200,14 +227,13 @@ class BayesianCritic(nn.Module):
     def forward(
         self, obs: torch.Tensor, action: torch.Tensor | None = None, samples: int = 0
     ) -> torch.Tensor:
-        p = 1.0 - self.keep_prob
         h = obs
         for i, (lin, norm) in enumerate(zip(self.linears, self.norms, strict=True)):
             h = F.relu(norm(lin(h)))
             if samples:
                 if i == 0:  # the first layer is shared by all samples; masks differ from here on
                     h = h.unsqueeze(0).expand(samples, *h.shape)
-                h = F.dropout(h, p=p, training=True)
+                h = h * dropout_mask(self.rng, tuple(h.shape), self.keep_prob)
             if i == 0 and action is not None:
                 a = action if not samples else action.unsqueeze(0).expand(samples, *action.shape)
                 h = torch.cat([h, a], dim=-1)
@@ -389,7 +415,13 @@ class ACTeach(SB3Compat):
             )
         arch = [int(h) for h in cfg.critic_arch]
         self.critic = BayesianCritic(
-            self.obs_dim, self.action_dim, out_dim, arch, cfg.dropout_keep_prob, cfg.layer_norm
+            self.obs_dim,
+            self.action_dim,
+            out_dim,
+            arch,
+            cfg.dropout_keep_prob,
+            cfg.layer_norm,
+            rng=self.rng,  # its dropout masks come from the model's generator (saved, resumed)
         )
         self.critic_target = BayesianCritic(
             self.obs_dim, self.action_dim, out_dim, arch, cfg.dropout_keep_prob, cfg.layer_norm
