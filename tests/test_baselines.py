@@ -170,6 +170,7 @@ def test_dropout_masks_come_from_the_given_generator() -> None:
     # keep probability 1: no dropout; an odd element count uses half of the last 64 random bits
     assert torch.equal(dropout_mask(np.random.default_rng(0), (3, 5), 1.0), torch.ones(3, 5))
     assert dropout_mask(np.random.default_rng(0), (3, 5), 0.5).shape == (3, 5)
+    assert dropout_mask(np.random.default_rng(0), (3, 5), 1.0 - 1e-12).min() > 0  # no overflow
     # 1e6 draws at keep 0.3: the kept share within 5 standard errors of 0.3, the mean scale 1
     m = dropout_mask(np.random.default_rng(1), (1000, 1000), 0.3)
     assert abs(float((m > 0).float().mean()) - 0.3) < 5 * (0.3 * 0.7 / 1e6) ** 0.5

@@ -186,7 +186,7 @@ def dropout_mask(
     if keep_prob >= 1.0:
         return torch.ones(shape)
     bits = rng.bit_generator.random_raw((n + 1) // 2).view(np.uint32)[:n]
-    keep = bits < np.uint32(round(keep_prob * 2**32))
+    keep = bits < np.uint32(min(round(keep_prob * 2**32), 2**32 - 1))
     return torch.from_numpy(np.multiply(keep, np.float32(1.0 / keep_prob))).view(shape)
 
 
