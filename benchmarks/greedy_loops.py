@@ -24,11 +24,6 @@ import torch
 EVAL_SEED = 10_000
 
 
-def softmax(logits: np.ndarray) -> np.ndarray:
-    shifted = np.exp(logits - logits.max())
-    return shifted / shifted.sum()
-
-
 def rounded(probabilities: np.ndarray) -> str:
     return "[" + ", ".join(f"{p:.2f}" for p in probabilities) + "]"
 
@@ -42,6 +37,7 @@ def main() -> None:
     if not (args.run / "model.pt").is_file():
         sys.exit(f"greedy_loops.py: {str(args.run)!r} has no model.pt")
     from tlac import TLAC
+    from tlac.algorithms.nets import np_log_softmax
     from tlac.domains import get_domain, make_teachers
     from tlac.domains.doorkey.env import REGION_NAMES, region_of
 
@@ -64,12 +60,12 @@ def main() -> None:
                 high_logits = model._act_heads(obs[None])[0][0]
                 advised = int(reference.predict(obs[None])[0])
                 agree += int(advised == action)
-                high = softmax(high_logits)
+                high = np.exp(np_log_softmax(high_logits))
                 most_trusted[model.teacher_names[int(np.argmax(high[:-1]))]] += 1
                 print(
                     f"episode {episode}: room {REGION_NAMES[int(region_of(obs[None])[0])]}, "
                     f"greedy {action}, {args.reference} {advised}, "
-                    f"student {rounded(softmax(low_out))}, high level {rounded(high)}"
+                    f"student {rounded(np.exp(np_log_softmax(low_out)))}, high level {rounded(high)}"
                     + f" ({', '.join(names)})"
                 )
             seen.add(obs.tobytes())

@@ -18,6 +18,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from tlac.experiments.metrics import reuse_frequency
+
 
 def parse_window(text: str) -> tuple[float, float]:
     """``"a:b"`` -> (a, b), numbers in any float notation (``0:5e4``)."""
@@ -40,11 +42,14 @@ def pooled_usage(runs: list[Path]) -> pd.DataFrame:
 
 
 def window_shares(usage: pd.DataFrame, low: float, high: float) -> tuple[pd.DataFrame, pd.Series]:
-    """(choice shares per region, share of steps per region) over ``low < timestep <= high``."""
+    """(choice shares per region, share of steps per region) over ``low < timestep <= high``:
+    the reports' reuse frequency (tlac.experiments.metrics.reuse_frequency) with one bin, as
+    every row of the window ends in (0, high]."""
     rows = usage[(usage.timestep > low) & (usage.timestep <= high)]
-    counts = rows.groupby(["region", "choice"])["count"].sum().unstack(fill_value=0)
-    per_region = counts.sum(axis=1)
-    return counts.div(per_region, axis=0), per_region / per_region.sum()
+    shares = reuse_frequency(rows, bin_width=high)
+    per_region = shares.groupby("region")["count"].sum()
+    table = shares.pivot(index="region", columns="choice", values="fraction").fillna(0.0)
+    return table, per_region / per_region.sum()
 
 
 def main() -> None:
