@@ -188,3 +188,41 @@ def test_an_interrupted_baseline_run_resumes_exactly(tmp_path: Path, algo: str) 
     assert without_clock(broken / "progress.csv") == without_clock(straight / "progress.csv")
     with pytest.raises(TlacError, match="finished run"):
         resume_run(broken)
+
+
+@pytest.mark.parametrize("algo", ["tlac", "ac-teach"])
+def test_a_run_on_an_unpicklable_simulation_resumes_with_new_episodes(
+    tmp_path: Path, algo: str
+) -> None:
+    """PyBullet's simulation lives in its physics server, which no checkpoint can hold: a
+    resumed hopper-bullet run starts new episodes (with a warning) instead of failing with
+    'Not connected to physics server', and finishes with its step budget."""
+    overrides = SMALL["ac-teach"] if algo == "ac-teach" else dict(n_epochs=1)
+    spec = RunSpec(
+        env="hopper-bullet",
+        algo=algo,
+        teachers=["random"],
+        steps=960,
+        seed=1,
+        eval_every=320,
+        eval_episodes=1,
+        log_interval=160,
+        overrides=overrides,
+    )
+
+    class Crash(Exception):
+        pass
+
+    def crash_at_640(timestep, student, train_return):
+        if timestep >= 640:
+            raise Crash
+
+    with pytest.raises(Crash):
+        train_run(spec, tmp_path, on_eval=crash_at_640, checkpoint_every=320)
+    assert (tmp_path / "checkpoint.pt").exists()
+    with pytest.warns(UserWarning, match="starts new episodes"):
+        resume_run(tmp_path, checkpoint_every=320)
+    assert (tmp_path / "result.json").exists() and not (tmp_path / "checkpoint.pt").exists()
+    ends = [int(line.split(",")[0]) for line in (tmp_path / "episodes.csv").read_text().split()[1:]]
+    assert ends == sorted(ends) and ends[-1] <= 960
+    assert ends[0] < 320 < ends[-1]  # episodes on both sides of the resume

@@ -243,7 +243,7 @@ def restore_training_state(model: Any, state: dict[str, Any]) -> None:
     torch.set_rng_state(state["torch_rng"])
     for teacher, states in zip(model.teachers, state["teachers"], strict=True):
         restore_generator_states(teacher, states)
-    restore_vec_env(model.env, state["env"])
+    exact_envs = restore_vec_env(model.env, state["env"])
     if state["buffer"] is not None:
         model.buffer = model.new_buffer()
         model.buffer.restore(state["buffer"])
@@ -251,6 +251,8 @@ def restore_training_state(model: Any, state: dict[str, Any]) -> None:
     model._resumed_schedule = None if schedule is None else (int(schedule[0]), int(schedule[1]))
     for name, value in state["loop"].items():
         setattr(model, f"_{name}", _array(value) if isinstance(value, torch.Tensor) else value)
+    if not exact_envs:
+        model._last_obs = None  # new episodes: learn() resets the environments
 
 
 def save_checkpoint(

@@ -6,12 +6,15 @@ Everything is stored as plain data and tensors (``torch.load(weights_only=True)`
 except the environments' own state: there is no general way to write a Gymnasium environment
 as data, so it is pickled into a byte tensor. Loading the file runs no code; only
 :func:`restore_vec_env` unpickles those bytes, and only when a caller asks to resume (resume
-your own checkpoints only). See docs/architecture.md, "Checkpoints and exact resume".
+your own checkpoints only). Some environments cannot be pickled with their episode in progress
+(:func:`env_state_pickles`: PyBullet, MuJoCo); a resume then starts new episodes in them, and
+only that part is not exact. See docs/architecture.md, "Checkpoints and exact resume".
 """
 
 from __future__ import annotations
 
 import pickle
+import warnings
 from collections import deque
 from typing import Any
 
@@ -73,9 +76,26 @@ def restore_generator_states(obj: Any, states: list[dict[str, Any]]) -> None:
         g.bit_generator.state = state
 
 
+def env_state_pickles(env: Any) -> bool:
+    """Whether pickling ``env`` keeps its episode in progress. Not for an environment whose
+    state lives outside Python (PyBullet's physics server: an unpickled copy is disconnected
+    and cannot step) nor for one that pickles as its constructor's arguments (Gymnasium's
+    ``EzPickle``: MuJoCo and Gymnasium-Robotics come back as new, un-reset simulations).
+
+    >>> import gymnasium as gym
+    >>> env_state_pickles(gym.make("CartPole-v1")), env_state_pickles(gym.make("Hopper-v5"))
+    (True, False)
+    """
+    from gymnasium.utils import EzPickle
+
+    base = getattr(env, "unwrapped", env)
+    return not (isinstance(base, EzPickle) or type(base).__module__.startswith("pybullet"))
+
+
 def vec_env_state(venv: Any) -> dict[str, Any]:
     """The episodes in progress of a tlac ``EpisodeRecorder`` over a ``DummyVecEnv``: its
-    counters as data and the environments pickled into a uint8 tensor."""
+    counters as data and the environments pickled into a uint8 tensor (``None`` where they
+    cannot be, :func:`env_state_pickles`)."""
     from stable_baselines3.common.vec_env import DummyVecEnv
 
     inner = getattr(venv, "venv", None)
@@ -84,9 +104,10 @@ def vec_env_state(venv: Any) -> dict[str, Any]:
             "exact resume needs the environments in memory (a DummyVecEnv, as a domain name "
             f"or a Gymnasium env gives); got {type(inner or venv).__name__}"
         )
-    blob = pickle.dumps(inner.envs)
+    exact = all(env_state_pickles(env) for env in inner.envs)
+    blob = pickle.dumps(inner.envs) if exact else None
     return {
-        "envs": torch.frombuffer(bytearray(blob), dtype=torch.uint8),
+        "envs": None if blob is None else torch.frombuffer(bytearray(blob), dtype=torch.uint8),
         "num_timesteps": int(venv.num_timesteps),
         "returns": torch.from_numpy(np.array(venv._returns)),
         "lengths": torch.from_numpy(np.array(venv._lengths)),
@@ -96,25 +117,39 @@ def vec_env_state(venv: Any) -> dict[str, Any]:
     }
 
 
-def restore_vec_env(venv: Any, state: dict[str, Any]) -> None:
-    """Put the saved environments and counters into ``venv`` (unpickles the environments)."""
-    envs = pickle.loads(state["envs"].numpy().tobytes())  # noqa: S301 - resume of own files
+def restore_vec_env(venv: Any, state: dict[str, Any]) -> bool:
+    """Put the saved environments and counters into ``venv`` (unpickles the environments).
+
+    Returns False where the environments cannot come back with their episodes in progress
+    (:func:`env_state_pickles`, also for checkpoints written before that check): ``venv`` keeps
+    its own environments, the unfinished episodes are dropped from the counters, and the caller
+    must reset ``venv`` before its next step (a warning says so)."""
     inner = venv.venv
-    if len(envs) != len(inner.envs):
-        raise ConfigError(
-            f"the checkpoint holds {len(envs)} environments, the given env has {len(inner.envs)}"
+    exact = state["envs"] is not None and all(env_state_pickles(env) for env in inner.envs)
+    if exact:
+        envs = pickle.loads(state["envs"].numpy().tobytes())  # noqa: S301 - resume of own files
+        if len(envs) != len(inner.envs):
+            raise ConfigError(
+                f"the checkpoint holds {len(envs)} environments, the given env has {len(inner.envs)}"
+            )
+        for env in inner.envs:
+            env.close()
+        inner.envs = envs
+    else:
+        warnings.warn(
+            f"{type(inner.envs[0].unwrapped).__name__}: its simulation cannot be saved, so the "
+            "resumed run starts new episodes (the unfinished ones are dropped; the rest is exact)",
+            stacklevel=2,
         )
-    for env in inner.envs:
-        env.close()
-    inner.envs = envs
     venv.num_timesteps = state["num_timesteps"]
-    venv._returns[:] = state["returns"].numpy()
-    venv._lengths[:] = state["lengths"].numpy()
+    venv._returns[:] = state["returns"].numpy() if exact else 0
+    venv._lengths[:] = state["lengths"].numpy() if exact else 0
     venv.episode_returns.clear()
     venv.episode_returns.extend(state["episode_returns"])
     venv.episode_lengths.clear()
     venv.episode_lengths.extend(state.get("episode_lengths", []))
     venv.episodes_done = state["episodes_done"]
+    return exact
 
 
 def attributes_state(obj: Any) -> dict[str, Any]:

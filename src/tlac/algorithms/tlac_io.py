@@ -263,7 +263,8 @@ class TLACPersistence:
             )
         for teacher, states in zip(self.teachers, state["teachers"], strict=True):
             restore_generator_states(teacher, states)
-        restore_vec_env(self.env, state["env"])
+        if not restore_vec_env(self.env, state["env"]):
+            self._last_obs = None  # new episodes: collect() resets the environments
         schedule = state["schedule"]
         self._resumed_schedule = None if schedule is None else (int(schedule[0]), int(schedule[1]))
         self._n_updates = int(state.get("n_updates", 0))
