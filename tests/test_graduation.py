@@ -23,7 +23,7 @@ from tlac.algorithms.graduation import (
 )
 from tlac.algorithms.two_level import VARIANT_DEFAULTS, TLACConfig
 from tlac.domains import get_domain
-from tlac.errors import ConfigError
+from tlac.errors import ConfigError, TeacherError
 from tlac.evaluation import evaluate_student
 from tlac.presets import load_preset
 from tlac.run import RunSpec, train_run
@@ -433,3 +433,53 @@ def test_capped_high_level_entropy_hand_checked():
     logits = high.clone().requires_grad_(True)
     model._mean_entropies(logits, low, latent, cap_high=0.5)[1].backward()
     assert float(logits.grad[0].abs().sum()) == 0.0
+
+
+def test_distribution_labels_hand_checked():
+    """advice_labels distribution: the imitation term is the cross-entropy from each teacher's
+    distribution to pi_low; a point mass gives exactly the sampled label's -log pi_low(a|s)."""
+    env = gym.make("CartPole-v1")
+    model = TLAC(env, teachers=[lambda obs: 0], seed=0, advice_labels="distribution")
+    logits = torch.log(torch.tensor([[0.25, 0.75]]))  # pi_low = (1/4, 3/4)
+    dists = torch.tensor([[[0.5, 0.5]], [[0.0, 1.0]]])  # 2 teachers x 1 state x 2 actions
+    nll = model._advice_nll(logits, torch.zeros(1, 64), dists)
+    assert nll.tolist() == [
+        [pytest.approx(-(0.5 * math.log(0.25) + 0.5 * math.log(0.75)))],
+        [pytest.approx(-math.log(0.75))],
+    ]
+    sampled = model._advice_nll(logits, torch.zeros(1, 64), torch.tensor([[1]]))
+    assert float(sampled[0, 0]) == float(nll[1, 0])
+    assert model.advice_buffer.advice.shape[1:] == (1, 2)
+    assert model.advice_buffer.advice.dtype == torch.float32
+    with pytest.raises(ConfigError, match="unknown advice_labels .soft.; expected one of: sampled, distribution"):
+        TLAC(env, advice_labels="soft")
+
+
+def test_teachers_tell_the_distribution_they_sample_from():
+    from tlac.teachers.base import NamedTeacher, advice_probabilities
+    from tlac.teachers.wrappers import MixedRandomTeacher, PartialTeacher, RandomTeacher
+
+    space = gym.spaces.Discrete(4)
+    obs = np.zeros((40_000, 2))
+    good = MixedRandomTeacher(lambda o: 1, 0.8, space, seed=3)
+    told = advice_probabilities(good, obs[:1], space)[0]
+    assert told.tolist() == pytest.approx([0.05, 0.85, 0.05, 0.05])
+    seen = np.bincount(good.predict(obs), minlength=4) / len(obs)
+    assert np.abs(seen - told).max() < 0.01
+    left = PartialTeacher(lambda o: 3, lambda b: (b[:, 0] > 0).astype(int), [0], space, seed=0)
+    rows = np.array([[-1.0, 0.0], [1.0, 0.0]])
+    assert advice_probabilities(left, rows, space).tolist() == [[0, 0, 0, 1], [0.25] * 4]
+    renamed = NamedTeacher(RandomTeacher(space, seed=0), "random_1")
+    assert advice_probabilities(renamed, rows, space).tolist() == [[0.25] * 4] * 2
+
+    class Broken:
+        name = "broken"
+
+        def predict(self, obs):
+            return np.zeros(len(obs), dtype=np.int64)
+
+        def action_probabilities(self, obs):
+            return np.ones((len(obs), 3))
+
+    with pytest.raises(TeacherError, match="'broken': action_probabilities gave an array"):
+        advice_probabilities(Broken(), rows, space)

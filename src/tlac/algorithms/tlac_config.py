@@ -169,6 +169,14 @@ class TLACConfig:
     among all choices, the agent included, so that the student copies little where the high
     level prefers it; meant with low_level_data agent). max and share are candidates,
     docs/graduation.md."""
+    advice_labels: str = "sampled"
+    """Discrete actions: what the imitation term copies from each teacher in a replayed state.
+    sampled: the action the teacher gave when asked (one sample); distribution: the teacher's
+    whole distribution over actions where it can tell it (``action_probabilities``: the random,
+    good / noisy and partial teachers of tlac.teachers.wrappers; a one-hot of its action
+    otherwise). The expected loss is the same; a distribution removes the sampling noise, so
+    that a random teacher's advice cannot move the student's most likely action (a candidate
+    against the greedy loops of docs/graduation.md)."""
     keep_best_student: bool = True
     """With solo episodes: ``predict`` (the student a user deploys) uses the last snapshot of
     the low level taken when its window of 20 solo returns was not clearly below the best
@@ -288,6 +296,7 @@ class TLACConfig:
             ("kl_rows", ["agent", "all", "high"]),
             ("obs_encoding", list(ENCODINGS)),
             ("trust", list(losses.TRUST_RULES)),
+            ("advice_labels", ["sampled", "distribution"]),
             ("low_level_data", ["all", "agent", "none"]),
             ("vec_env", ["dummy", "subproc"]),
             ("selector", list(SELECTOR_NAMES)),

@@ -38,6 +38,7 @@ from tlac.algorithms.nets import (
 from tlac.algorithms.normalization import Normalizer
 from tlac.errors import ConfigError
 from tlac.presets import make_schedule
+from tlac.teachers.base import advice_probabilities
 
 if TYPE_CHECKING:
     from tlac.algorithms.tlac_config import TLACConfig
@@ -191,8 +192,16 @@ class TLACHeads:
 
     def _advice_on(self, obs: torch.Tensor) -> torch.Tensor:
         """Every teacher's action in every row of ``obs``: ``(n_teachers, n)`` (discrete) or
-        ``(n_teachers, n, act_dim)`` (Box), each teacher asked once for the whole batch."""
+        ``(n_teachers, n, act_dim)`` (Box), each teacher asked once for the whole batch. With
+        ``advice_labels: distribution`` (discrete) each teacher's distribution over the actions
+        instead: ``(n_teachers, n, n_actions)`` (tlac.teachers.base.advice_probabilities)."""
         raw = obs.numpy().reshape(-1, *self.observation_space.shape)
+        if self.discrete and self.config.advice_labels == "distribution":
+            return torch.from_numpy(
+                np.stack(
+                    [advice_probabilities(t, raw, self.action_space) for t in self.teachers]
+                ).astype(np.float32)
+            )
         choices = np.zeros(len(raw), dtype=np.int64)
         out = []
         for k in range(self.n_teachers):
@@ -217,6 +226,8 @@ class TLACHeads:
         exploration noise."""
         if self.discrete:
             log_p = torch.log_softmax(low_out, -1)
+            if advice.is_floating_point():  # distributions: the cross-entropy to each
+                return -(advice * log_p.unsqueeze(0)).sum(-1)
             return (
                 -log_p.unsqueeze(0)
                 .expand(len(advice), -1, -1)

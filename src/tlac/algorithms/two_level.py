@@ -132,11 +132,14 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self.train_high = self.selector.trains_high_level and self.n_choices > 1
         self.advice_buffer: AdviceBuffer | None = None
         if self.n_teachers and cfg.distill_coef != 0:
+            shape: tuple[int, ...] = (self.n_teachers,)  # discrete: each teacher's action
+            if not self.discrete or cfg.advice_labels == "distribution":
+                shape = (self.n_teachers, self.net.out_dims[LOW])  # Box actions, distributions
             self.advice_buffer = AdviceBuffer(
                 cfg.imitation_buffer_size,
                 self.obs_dim,
-                (self.n_teachers,) if self.discrete else (self.n_teachers, self.net.out_dims[LOW]),
-                torch.int64 if self.discrete else torch.float32,
+                shape,
+                torch.int64 if len(shape) == 1 else torch.float32,
             )
         self._replay_generator = torch.Generator().manual_seed(self.seed + 1)
         self.solo: SoloEpisodes | None = None

@@ -190,3 +190,29 @@ def check_actions(teacher_name: str, actions: Any, action_space: gym.Space, n: i
             )
         return arr
     raise TeacherError(f"unsupported action space {action_space} for teacher {teacher_name!r}")
+
+
+def advice_probabilities(teacher: Any, obs: np.ndarray, action_space: gym.Space) -> np.ndarray:
+    """``(n, action_space.n)``: ``teacher``'s distribution over the actions of a Discrete space
+    in every row of ``obs``. A teacher that knows it gives it (``action_probabilities(obs)``:
+    tlac's random, good / noisy and partial teachers); any other is a point mass on its action
+    (a deterministic teacher's is exact; a stochastic one's is one sample of it).
+
+    >>> t = as_teacher(lambda obs: 2, gym.spaces.Discrete(3))
+    >>> advice_probabilities(t, np.zeros((1, 4)), gym.spaces.Discrete(3)).tolist()
+    [[0.0, 0.0, 1.0]]
+    """
+    n_actions = int(action_space.n)
+    inner = teacher.teacher if isinstance(teacher, NamedTeacher) else teacher
+    if hasattr(inner, "action_probabilities"):
+        probs = np.asarray(inner.action_probabilities(obs), dtype=np.float64)
+        if probs.shape != (len(obs), n_actions) or not np.allclose(probs.sum(1), 1.0):
+            raise TeacherError(
+                f"teacher {teacher.name!r}: action_probabilities gave an array of shape "
+                f"{probs.shape} (rows summing to 1 expected, shape ({len(obs)}, {n_actions}))"
+            )
+        return probs
+    actions = ask_teacher(teacher, obs, action_space) - int(action_space.start)
+    probs = np.zeros((len(obs), n_actions))
+    probs[np.arange(len(obs)), actions] = 1.0
+    return probs

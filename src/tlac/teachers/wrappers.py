@@ -28,7 +28,7 @@ import gymnasium as gym
 import numpy as np
 
 from tlac.errors import ConfigError
-from tlac.teachers.base import Teacher, as_teacher
+from tlac.teachers.base import Teacher, advice_probabilities, as_teacher
 
 
 def _check_probability(name: str, value: float) -> float:
@@ -71,6 +71,13 @@ def _as_batch(obs: np.ndarray) -> np.ndarray:
     return np.asarray(obs)
 
 
+def uniform_probabilities(space: gym.Space, n: int) -> np.ndarray:
+    """``(n, space.n)``: the uniform distribution over a Discrete space's actions, per row."""
+    if not isinstance(space, gym.spaces.Discrete):
+        raise ConfigError(f"action probabilities need a Discrete action space; got {space}")
+    return np.full((n, int(space.n)), 1.0 / int(space.n))
+
+
 class RandomTeacher:
     """Uniformly random advice over the action space (paper: the *random teacher*).
 
@@ -87,6 +94,10 @@ class RandomTeacher:
 
     def predict(self, obs: np.ndarray) -> np.ndarray:
         return sample_uniform(self.action_space, self.rng, len(_as_batch(obs)))
+
+    def action_probabilities(self, obs: np.ndarray) -> np.ndarray:
+        """Discrete: uniform in every row (draws nothing)."""
+        return uniform_probabilities(self.action_space, len(_as_batch(obs)))
 
 
 class MixedRandomTeacher:
@@ -120,6 +131,19 @@ class MixedRandomTeacher:
         if follow.any():
             actions[follow] = np.asarray(self.base.predict(obs[follow]), dtype=actions.dtype)
         return actions
+
+    def action_probabilities(self, obs: np.ndarray) -> np.ndarray:
+        """Discrete: ``p_teacher`` times the base's distribution plus ``1 - p_teacher`` times
+        the uniform one (draws nothing from this teacher's generator).
+
+        >>> t = MixedRandomTeacher(lambda o: 0, 0.8, gym.spaces.Discrete(4), seed=0)
+        >>> t.action_probabilities(np.zeros((1, 2))).round(2).tolist()
+        [[0.85, 0.05, 0.05, 0.05]]
+        """
+        obs = _as_batch(obs)
+        base = advice_probabilities(self.base, obs, self.action_space)
+        uniform = uniform_probabilities(self.action_space, len(obs))
+        return self.p_teacher * base + (1.0 - self.p_teacher) * uniform
 
 
 class GaussianNoiseTeacher:
@@ -244,6 +268,15 @@ class PartialTeacher:
             actions[inside] = np.asarray(self.base.predict(obs[inside]), dtype=actions.dtype)
         return actions
 
+    def action_probabilities(self, obs: np.ndarray) -> np.ndarray:
+        """Discrete: the base's distribution inside the regions, uniform outside them."""
+        obs = _as_batch(obs)
+        inside = self.applies(obs)
+        probs = uniform_probabilities(self.action_space, len(obs))
+        if inside.any():
+            probs[inside] = advice_probabilities(self.base, obs[inside], self.action_space)
+        return probs
+
 
 __all__ = [
     "GaussianNoiseTeacher",
@@ -251,4 +284,5 @@ __all__ = [
     "PartialTeacher",
     "RandomTeacher",
     "sample_uniform",
+    "uniform_probabilities",
 ]
