@@ -451,7 +451,9 @@ def test_distribution_labels_hand_checked():
     assert float(sampled[0, 0]) == float(nll[1, 0])
     assert model.advice_buffer.advice.shape[1:] == (1, 2)
     assert model.advice_buffer.advice.dtype == torch.float32
-    with pytest.raises(ConfigError, match="unknown advice_labels .soft.; expected one of: sampled, distribution"):
+    with pytest.raises(
+        ConfigError, match=r"unknown advice_labels .soft.; expected one of: sampled, distribution"
+    ):
         TLAC(env, advice_labels="soft")
 
 
