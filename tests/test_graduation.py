@@ -452,7 +452,8 @@ def test_distribution_labels_hand_checked():
     assert model.advice_buffer.advice.shape[1:] == (1, 2)
     assert model.advice_buffer.advice.dtype == torch.float32
     with pytest.raises(
-        ConfigError, match=r"unknown advice_labels .soft.; expected one of: sampled, distribution"
+        ConfigError,
+        match=r"unknown advice_labels .soft.; expected one of: sampled, distribution, informative",
     ):
         TLAC(env, advice_labels="soft")
 
@@ -485,3 +486,18 @@ def test_teachers_tell_the_distribution_they_sample_from():
 
     with pytest.raises(TeacherError, match="'broken': action_probabilities gave an array"):
         advice_probabilities(Broken(), rows, space)
+
+
+def test_informative_trust_hand_checked():
+    """A teacher's trust is weighted by 1 - H / log A of its advice in that state, then the
+    state's total trust is restored. Four actions: (0.5, 0.5, 0, 0) has H = ln 2, half of
+    ln 4 (information 0.5); a point mass 1; the uniform distribution 0."""
+    half = torch.tensor([0.5, 0.5, 0.0, 0.0])
+    point, uniform = torch.tensor([1.0, 0.0, 0.0, 0.0]), torch.full((4,), 0.25)
+    dists = torch.stack([torch.stack([half]), torch.stack([point]), torch.stack([uniform])])
+    trust = torch.tensor([[0.5, 0.25, 0.25]])  # (B=1, K=3)
+    # info = 0.5, 1, 0 -> weighted 0.25, 0.25, 0 -> rescaled to total 1: 0.5, 0.5, 0
+    got = losses.informative_trust(trust, dists)
+    assert got.tolist() == [[pytest.approx(0.5), pytest.approx(0.5), pytest.approx(0.0)]]
+    share = losses.informative_trust(trust * 0.5, dists)  # the agent's share is kept out
+    assert share.sum().item() == pytest.approx(0.5)

@@ -145,6 +145,32 @@ def teacher_trust(high_logits: torch.Tensor, rule: str, n_teachers: int) -> torc
     return torch.softmax(teacher_logits, -1)
 
 
+def informative_trust(trust: torch.Tensor, distributions: torch.Tensor) -> torch.Tensor:
+    """``(B, K)``: ``trust`` re-weighted by how much each teacher's advice says in each state.
+
+    ``distributions`` ``(K, B, A)``: each teacher's distribution over the ``A`` actions. A
+    teacher's information in a state is ``1 - H(pi_k(.|s)) / log A``: 1 for a point mass, 0 for
+    the uniform distribution (a random teacher, a partial teacher outside its region), which
+    says nothing about which action is right. ``trust[s, k] * info[k, s]`` is rescaled so that
+    each state keeps its total trust; a state where every trusted teacher is uniform gets no
+    imitation at all.
+
+    >>> uniform, point = torch.full((3,), 1 / 3), torch.tensor([0.0, 1.0, 0.0])
+    >>> dists = torch.stack([torch.stack([point, uniform]), torch.stack([uniform, uniform])])
+    >>> informative_trust(torch.tensor([[0.2, 0.8], [0.2, 0.8]]), dists).tolist()
+    [[1.0, 0.0], [0.0, 0.0]]
+    """
+    n_actions = distributions.shape[-1]
+    if n_actions < 2:
+        return trust
+    entropy = -(distributions * torch.log(distributions.clamp_min(1e-12))).sum(-1)  # (K, B)
+    info = (1.0 - entropy / math.log(n_actions)).clamp_min(0.0).T  # (B, K)
+    weighted = trust * info
+    total = weighted.sum(1, keepdim=True)
+    scale = torch.where(total > 0, trust.sum(1, keepdim=True) / total.clamp_min(1e-12), 0.0)
+    return weighted * scale
+
+
 def imitation_loss(neg_log_likelihoods: torch.Tensor, trust: torch.Tensor) -> torch.Tensor:
     """The graduate variant's imitation term: ``mean_s sum_k trust[s, k] * nll[k, s]``.
 

@@ -175,8 +175,11 @@ class TLACConfig:
     whole distribution over actions where it can tell it (``action_probabilities``: the random,
     good / noisy and partial teachers of tlac.teachers.wrappers; a one-hot of its action
     otherwise). The expected loss is the same; a distribution removes the sampling noise, so
-    that a random teacher's advice cannot move the student's most likely action (a candidate
-    against the greedy loops of docs/graduation.md)."""
+    that a random teacher's advice cannot move the student's most likely action. informative:
+    distributions, and each teacher's trust in a state weighted by how much its advice says
+    there (``1 - entropy / log n_actions``: nothing for a uniform one; losses.informative_trust),
+    so that the student copies the teacher that knows, wherever the high level's trust is
+    wrong (candidates against the greedy loops of docs/graduation.md)."""
     keep_best_student: bool = True
     """With solo episodes: ``predict`` (the student a user deploys) uses the last snapshot of
     the low level taken when its window of 20 solo returns was not clearly below the best
@@ -296,7 +299,7 @@ class TLACConfig:
             ("kl_rows", ["agent", "all", "high"]),
             ("obs_encoding", list(ENCODINGS)),
             ("trust", list(losses.TRUST_RULES)),
-            ("advice_labels", ["sampled", "distribution"]),
+            ("advice_labels", ["sampled", "distribution", "informative"]),
             ("low_level_data", ["all", "agent", "none"]),
             ("vec_env", ["dummy", "subproc"]),
             ("selector", list(SELECTOR_NAMES)),

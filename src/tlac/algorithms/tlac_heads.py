@@ -194,9 +194,10 @@ class TLACHeads:
         """Every teacher's action in every row of ``obs``: ``(n_teachers, n)`` (discrete) or
         ``(n_teachers, n, act_dim)`` (Box), each teacher asked once for the whole batch. With
         ``advice_labels: distribution`` (discrete) each teacher's distribution over the actions
-        instead: ``(n_teachers, n, n_actions)`` (tlac.teachers.base.advice_probabilities)."""
+        instead (also with ``informative``): ``(n_teachers, n, n_actions)``
+        (tlac.teachers.base.advice_probabilities)."""
         raw = obs.numpy().reshape(-1, *self.observation_space.shape)
-        if self.discrete and self.config.advice_labels == "distribution":
+        if self.discrete and self.config.advice_labels != "sampled":
             return torch.from_numpy(
                 np.stack(
                     [advice_probabilities(t, raw, self.action_space) for t in self.teachers]
@@ -246,6 +247,8 @@ class TLACHeads:
         in that teacher (``trust``: by default the softmax over the teachers' logits only; no
         gradient)."""
         trust = losses.teacher_trust(high_logits.detach(), self.config.trust, self.n_teachers)
+        if advice.is_floating_point() and self.config.advice_labels == "informative":
+            trust = losses.informative_trust(trust, advice)
         return losses.imitation_loss(self._advice_nll(low_out, latent, advice), trust)
 
     def _mean_entropies(

@@ -133,7 +133,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self.advice_buffer: AdviceBuffer | None = None
         if self.n_teachers and cfg.distill_coef != 0:
             shape: tuple[int, ...] = (self.n_teachers,)  # discrete: each teacher's action
-            if not self.discrete or cfg.advice_labels == "distribution":
+            if not self.discrete or cfg.advice_labels != "sampled":
                 shape = (self.n_teachers, self.net.out_dims[LOW])  # Box actions, distributions
             self.advice_buffer = AdviceBuffer(
                 cfg.imitation_buffer_size,
