@@ -501,3 +501,19 @@ def test_informative_trust_hand_checked():
     assert got.tolist() == [[pytest.approx(0.5), pytest.approx(0.5), pytest.approx(0.0)]]
     share = losses.informative_trust(trust * 0.5, dists)  # the agent's share is kept out
     assert share.sum().item() == pytest.approx(0.5)
+
+
+def test_informative_labels_change_nothing_with_point_mass_teachers():
+    """A user's plain functions give one action, a point mass: with them the informative
+    labels weigh every teacher fully and the cross-entropy is -log pi_low(a|s), so training
+    is bit-for-bit the sampled labels' (the user suite's figures stand for both). Sampled
+    first and again last: the first model of a process may differ in the last bits, as
+    building it switches torch to one thread."""
+    params = []
+    for labels in ("sampled", "informative", "sampled"):
+        env = gym.make("CartPole-v1")
+        teachers = [lambda obs: int(obs[2] > 0), lambda obs: 0]
+        model = TLAC(env, teachers=teachers, seed=3, advice_labels=labels, n_steps=32)
+        model.learn(640)
+        params.append(torch.cat([p.detach().flatten() for p in model.net.parameters()]))
+    assert torch.equal(params[1], params[2])
