@@ -233,6 +233,7 @@ for key, value in (
     ("obs_encoding", "jpeg"),
     ("low_level_data", "some"),
     ("trust", "blind"),
+    ("advice_labels", "hearsay"),
 ):
     CLI_CASES.append(([*T, "--set", f"{key}={value}"], f"'{value}'"))
 CLI_CASES.append(([*T, "--set", "selector=oracle"], "chosen with --selector"))
