@@ -74,6 +74,22 @@ SMALL = {
 }
 
 
+def crash_run(spec: RunSpec, folder: Path, crash_at: int, checkpoint_every: int) -> None:
+    """Train ``spec`` into ``folder`` and crash at the first evaluation at or after
+    ``crash_at`` steps, as a killed run would: a checkpoint is left, no result."""
+
+    class Crash(Exception):
+        pass
+
+    def crash(timestep: int, student: float, train_return: float) -> None:
+        if timestep >= crash_at:
+            raise Crash
+
+    with pytest.raises(Crash):
+        train_run(spec, folder, on_eval=crash, checkpoint_every=checkpoint_every)
+    assert (folder / "checkpoint.pt").exists() and not (folder / "result.json").exists()
+
+
 def _doorkey(algo: str, seed: int = 4):
     """A fresh model of ``algo`` on DoorKey with an optimal and a random teacher (the random
     one has a generator, which the checkpoint must carry)."""
@@ -167,17 +183,7 @@ def test_an_interrupted_baseline_run_resumes_exactly(tmp_path: Path, algo: str) 
     )
     straight, broken = tmp_path / "straight", tmp_path / "broken"
     train_run(spec, straight, checkpoint_every=300)
-
-    class Crash(Exception):
-        pass
-
-    def crash_at_600(timestep, student, train_return):
-        if timestep >= 600:
-            raise Crash
-
-    with pytest.raises(Crash):
-        train_run(spec, broken, on_eval=crash_at_600, checkpoint_every=300)
-    assert (broken / "checkpoint.pt").exists() and not (broken / "result.json").exists()
+    crash_run(spec, broken, crash_at=600, checkpoint_every=300)
     resume_run(broken, checkpoint_every=300)
     for name in ("episodes.csv", "eval.csv", "teacher_usage.csv"):
         assert (broken / name).read_bytes() == (straight / name).read_bytes(), name
@@ -209,17 +215,7 @@ def test_a_run_on_an_unpicklable_simulation_resumes_with_new_episodes(
         log_interval=160,
         overrides=overrides,
     )
-
-    class Crash(Exception):
-        pass
-
-    def crash_at_640(timestep, student, train_return):
-        if timestep >= 640:
-            raise Crash
-
-    with pytest.raises(Crash):
-        train_run(spec, tmp_path, on_eval=crash_at_640, checkpoint_every=320)
-    assert (tmp_path / "checkpoint.pt").exists()
+    crash_run(spec, tmp_path, crash_at=640, checkpoint_every=320)
     with pytest.warns(UserWarning, match="starts new episodes"):
         resume_run(tmp_path, checkpoint_every=320)
     assert (tmp_path / "result.json").exists() and not (tmp_path / "checkpoint.pt").exists()
