@@ -517,3 +517,17 @@ def test_informative_labels_change_nothing_with_point_mass_teachers():
         model.learn(640)
         params.append(torch.cat([p.detach().flatten() for p in model.net.parameters()]))
     assert torch.equal(params[1], params[2])
+
+
+def test_informative_labels_leave_box_actions_alone():
+    """advice_labels is about discrete actions: on a Box space the advice is the teachers'
+    actions, not distributions, and informative must not read them as such."""
+    high = torch.tensor([[0.3, -0.2, 0.1]])  # 2 teachers + agent
+    mean, latent = torch.tensor([[0.5, 0.0, -0.5]]), torch.zeros(1, 64)
+    advice = torch.tensor([[[0.7, 0.2, 0.1]], [[-0.9, 0.5, 0.0]]])  # 2 teachers x 1 state x 3
+    terms = []
+    for labels in ("sampled", "informative"):
+        teachers = [lambda obs: np.zeros(3, np.float32)] * 2
+        model = TLAC(gym.make("Hopper-v5"), teachers=teachers, seed=0, advice_labels=labels)
+        terms.append(float(model._imitation_term(high, mean, latent, advice)))
+    assert terms[0] == terms[1]

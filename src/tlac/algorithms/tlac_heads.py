@@ -247,7 +247,7 @@ class TLACHeads:
         in that teacher (``trust``: by default the softmax over the teachers' logits only; no
         gradient)."""
         trust = losses.teacher_trust(high_logits.detach(), self.config.trust, self.n_teachers)
-        if advice.is_floating_point() and self.config.advice_labels == "informative":
+        if self.discrete and self.config.advice_labels == "informative":  # (K, B, A) dists
             trust = losses.informative_trust(trust, advice)
         return losses.imitation_loss(self._advice_nll(low_out, latent, advice), trust)
 
