@@ -182,7 +182,8 @@ class TLACConfig:
     wrong. informative lifts the PPO-derived L + R greedy student from 0.61 to 0.89 but costs
     1 optimal + 2 random at 1e5 (0.896 against 0.945), so it is not the default yet; with a
     user's plain functions (point masses) it trains bit for bit as sampled (docs/graduation.md,
-    "The teachers' whole advice")."""
+    "The teachers' whole advice"). On a Box action space a teacher's advice is its action
+    vector, and every value trains as sampled."""
     keep_best_student: bool = True
     """With solo episodes: ``predict`` (the student a user deploys) uses the last snapshot of
     the low level taken when its window of 20 solo returns was not clearly below the best
