@@ -80,8 +80,9 @@ class AcrobotLookahead:
     def _derivatives(
         self, t1: float, t2: float, w1: float, w2: float, torque: float
     ) -> tuple[float, float, float, float]:
-        """ds/dt (the book's dynamics, AcrobotEnv's default), in plain floats: with one state
-        and three torques at a time they are ~10x faster than NumPy's small arrays."""
+        """ds/dt (the book's dynamics, AcrobotEnv's default), in plain floats: AcrobotEnv._dsdt
+        computes the same with NumPy and is 3.5x slower per call on one state (6.3 against
+        1.8 us here), which would double a training run's time; a test pins the two together."""
         cos2, sin2 = math.cos(t2), math.sin(t2)
         d1 = self.d1_const + 2 * self.coupling * cos2
         d2 = self.d2_const + self.coupling * cos2
@@ -231,11 +232,6 @@ def run_name(entry: str, learner: str, seed: int) -> str:
     return f"{gym_id(entry) if learner == 'ppo' else entry}__{learner}__seed{seed}"
 
 
-def batched(teacher: Any) -> Callable[[np.ndarray], Any]:
-    """A teacher as a function of a batch of observations."""
-    return teacher.predict if hasattr(teacher, "predict") else one_by_one(teacher)
-
-
 def evaluate(act_batch: Callable[[np.ndarray], Any], env_id: str, episodes: int) -> np.ndarray:
     """Returns of ``act_batch`` over ``episodes`` fresh episodes seeded EVAL_SEED, ..."""
     from tlac.evaluation import evaluate_policy
@@ -250,14 +246,12 @@ def one_by_one(fn: Callable[[np.ndarray], Any]) -> Callable[[np.ndarray], list]:
 
 def reference_returns(env_id: str, episodes: int) -> dict[str, Any]:
     """Each teacher's own return and the random policy's (the normalisation's two ends)."""
-    from tlac.teachers.base import teacher_label
+    from tlac.teachers.base import as_teacher
 
     space = gym.make(gym_id(env_id)).action_space
-    teachers = SUITE[env_id](0, space)
     out: dict[str, Any] = {"env": env_id, "teachers": {}}
-    for index, teacher in enumerate(teachers):
-        returns = evaluate(batched(teacher), env_id, episodes)
-        out["teachers"][teacher_label(teacher, index)] = float(returns.mean())
+    for teacher in (as_teacher(t, space) for t in SUITE[env_id](0, space)):
+        out["teachers"][teacher.name] = float(evaluate(teacher.predict, env_id, episodes).mean())
     rand = random_teacher(space, 12345)
     out["random_policy"] = float(evaluate(one_by_one(rand), env_id, episodes).mean())
     return out

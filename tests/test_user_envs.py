@@ -10,6 +10,8 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+from tlac.teachers.base import as_teacher
+
 _PATH = Path(__file__).resolve().parents[1] / "benchmarks" / "user_envs.py"
 _spec = importlib.util.spec_from_file_location("user_envs", _PATH)
 user_envs = importlib.util.module_from_spec(_spec)
@@ -40,7 +42,7 @@ def test_suite_teachers_are_valid_actions_and_normalisation():
         env = gym.make(user_envs.gym_id(entry))
         obs, _ = env.reset(seed=0)
         for teacher in make_teachers(0, env.action_space):
-            action = user_envs.batched(teacher)(obs[None])[0]
+            action = as_teacher(teacher, env.action_space).predict(obs[None])[0]
             assert env.action_space.contains(np.asarray(action, dtype=env.action_space.dtype)), (
                 entry,
                 teacher,
