@@ -453,7 +453,7 @@ def test_distribution_labels_hand_checked():
     assert model.advice_buffer.advice.dtype == torch.float32
     with pytest.raises(
         ConfigError,
-        match=r"unknown advice_labels .soft.; expected one of: sampled, distribution, informative",
+        match=r"unknown advice_labels .soft.; expected one of: sampled, distribution, informative, filtered",
     ):
         TLAC(env, advice_labels="soft")
 
@@ -501,6 +501,9 @@ def test_informative_trust_hand_checked():
     assert got.tolist() == [[pytest.approx(0.5), pytest.approx(0.5), pytest.approx(0.0)]]
     share = losses.informative_trust(trust * 0.5, dists)  # the agent's share is kept out
     assert share.sum().item() == pytest.approx(0.5)
+    # filtered (keep_total=False): the weighted trust as it is, the uniform teacher's 0.25 lost
+    kept = losses.informative_trust(trust, dists, keep_total=False)
+    assert kept.tolist() == [[pytest.approx(0.25), pytest.approx(0.25), pytest.approx(0.0)]]
 
 
 def test_informative_labels_change_nothing_with_point_mass_teachers():

@@ -145,7 +145,9 @@ def teacher_trust(high_logits: torch.Tensor, rule: str, n_teachers: int) -> torc
     return torch.softmax(teacher_logits, -1)
 
 
-def informative_trust(trust: torch.Tensor, distributions: torch.Tensor) -> torch.Tensor:
+def informative_trust(
+    trust: torch.Tensor, distributions: torch.Tensor, keep_total: bool = True
+) -> torch.Tensor:
     """``(B, K)``: ``trust`` re-weighted by how much each teacher's advice says in each state.
 
     ``distributions`` ``(K, B, A)``: each teacher's distribution over the ``A`` actions. A
@@ -166,6 +168,8 @@ def informative_trust(trust: torch.Tensor, distributions: torch.Tensor) -> torch
     entropy = -(distributions * torch.log(distributions.clamp_min(1e-12))).sum(-1)  # (K, B)
     info = (1.0 - entropy / math.log(n_actions)).clamp_min(0.0).T  # (B, K)
     weighted = trust * info
+    if not keep_total:
+        return weighted
     total = weighted.sum(1, keepdim=True)
     scale = torch.where(total > 0, trust.sum(1, keepdim=True) / total.clamp_min(1e-12), 0.0)
     return weighted * scale

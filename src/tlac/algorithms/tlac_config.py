@@ -182,7 +182,9 @@ class TLACConfig:
     wrong. informative lifts the PPO-derived L + R greedy student from 0.61 to 0.89 but costs
     1 optimal + 2 random at 1e5 (0.896 against 0.945), so it is not the default yet; with a
     user's plain functions (point masses) it trains bit for bit as sampled (docs/graduation.md,
-    "The teachers' whole advice"). On a Box action space a teacher's advice is its action
+    "The teachers' whole advice"). filtered: as informative, but a teacher's lost trust is
+    not moved to the others, so a state whose trusted teachers say little is imitated less
+    (a candidate). On a Box action space a teacher's advice is its action
     vector, and every value trains as sampled."""
     keep_best_student: bool = True
     """With solo episodes: ``predict`` (the student a user deploys) uses the last snapshot of
@@ -303,7 +305,7 @@ class TLACConfig:
             ("kl_rows", ["agent", "all", "high"]),
             ("obs_encoding", list(ENCODINGS)),
             ("trust", list(losses.TRUST_RULES)),
-            ("advice_labels", ["sampled", "distribution", "informative"]),
+            ("advice_labels", ["sampled", "distribution", "informative", "filtered"]),
             ("low_level_data", ["all", "agent", "none"]),
             ("vec_env", ["dummy", "subproc"]),
             ("selector", list(SELECTOR_NAMES)),

@@ -247,8 +247,9 @@ class TLACHeads:
         in that teacher (``trust``: by default the softmax over the teachers' logits only; no
         gradient)."""
         trust = losses.teacher_trust(high_logits.detach(), self.config.trust, self.n_teachers)
-        if self.discrete and self.config.advice_labels == "informative":  # (K, B, A) dists
-            trust = losses.informative_trust(trust, advice)
+        labels = self.config.advice_labels
+        if self.discrete and labels in ("informative", "filtered"):  # (K, B, A) dists
+            trust = losses.informative_trust(trust, advice, keep_total=labels == "informative")
         return losses.imitation_loss(self._advice_nll(low_out, latent, advice), trust)
 
     def _mean_entropies(
