@@ -81,7 +81,12 @@ def main() -> None:
 
     started = time.time()
     states, teacher_return = play(lambda o: int(label(o[None])[0]), 0, 50)
-    print(f"teacher {args.teacher}: {teacher_return:.1f} over its 50 episodes", flush=True)
+    _, teacher_alone = play(lambda o: int(label(o[None])[0]), EVAL_SEED, EVAL_EPISODES)
+    print(
+        f"teacher {args.teacher}: {teacher_return:.1f} over its 50 training episodes, "
+        f"{teacher_alone:.1f} over the {EVAL_EPISODES} evaluation episodes",
+        flush=True,
+    )
     xs, ys = [states], [label(states)]
     for round_ in range(args.rounds):
         x = torch.as_tensor(np.concatenate(xs), dtype=torch.float32) / scale
