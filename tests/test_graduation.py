@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 from collections import deque
@@ -534,3 +535,23 @@ def test_informative_labels_leave_box_actions_alone():
         model = TLAC(gym.make("Hopper-v5"), teachers=teachers, seed=0, advice_labels=labels)
         terms.append(float(model._imitation_term(high, mean, latent, advice)))
     assert terms[0] == terms[1]
+
+
+def test_filtered_labels_imitate_less_where_a_trusted_teacher_says_nothing():
+    """The imitation term on one DoorKey state where the high level trusts an optimal-like
+    teacher (a point mass) and a random one (uniform) equally: informative moves the random
+    teacher's trust to the point mass (twice its -log pi), filtered drops it (once)."""
+    model = TLAC("doorkey", teachers=["optimal", "random"], seed=0)
+    n_actions = model.net.out_dims[1]
+    point = torch.zeros(n_actions)
+    point[2] = 1.0
+    advice = torch.stack([point[None], torch.full((1, n_actions), 1.0 / n_actions)])
+    high = torch.tensor([[0.0, 0.0, -30.0]])  # optimal, random equal; the agent ~0
+    low = torch.zeros(1, n_actions)  # pi_low uniform: -log pi(a) = log n for every action
+    latent = torch.zeros(1, 64)
+    terms = {}
+    for labels in ("informative", "filtered"):
+        model.config = dataclasses.replace(model.config, advice_labels=labels)
+        terms[labels] = float(model._imitation_term(high, low, latent, advice))
+    assert terms["informative"] == pytest.approx(math.log(n_actions))  # trust 1 on the point
+    assert terms["filtered"] == pytest.approx(0.5 * math.log(n_actions))  # its own 0.5 only
