@@ -21,14 +21,14 @@ from collections.abc import Callable
 import gymnasium as gym
 import numpy as np
 import torch
-from user_envs import EVAL_EPISODES, EVAL_SEED, AcrobotLookahead, acrobot_swing
+from user_envs import EVAL_EPISODES, AcrobotLookahead, acrobot_swing, evaluate, one_by_one
 
 Policy = Callable[[np.ndarray], int]
 
 
 def play(policy: Policy, first_seed: int, episodes: int) -> tuple[np.ndarray, float]:
-    """The states ``policy`` visits in Acrobot-v1 over ``episodes`` seeded episodes, and its
-    mean return."""
+    """The states ``policy`` visits in Acrobot-v1 over ``episodes`` seeded episodes (DAgger's
+    data), and its mean return there. Scores use the suite's own ``evaluate``."""
     env = gym.make("Acrobot-v1")
     states, returns = [], []
     for episode in range(episodes):
@@ -81,7 +81,7 @@ def main() -> None:
 
     started = time.time()
     states, teacher_return = play(lambda o: int(label(o[None])[0]), 0, 50)
-    _, teacher_alone = play(lambda o: int(label(o[None])[0]), EVAL_SEED, EVAL_EPISODES)
+    teacher_alone = evaluate(label, "Acrobot-v1", EVAL_EPISODES).mean()
     print(
         f"teacher {args.teacher}: {teacher_return:.1f} over its 50 training episodes, "
         f"{teacher_alone:.1f} over the {EVAL_EPISODES} evaluation episodes",
@@ -102,7 +102,7 @@ def main() -> None:
         visited, _ = play(student, 1000 * (round_ + 1), 20)  # DAgger: label the student's states
         xs.append(visited)
         ys.append(label(visited))
-        _, alone = play(student, EVAL_SEED, EVAL_EPISODES)
+        alone = evaluate(one_by_one(student), "Acrobot-v1", EVAL_EPISODES).mean()
         print(
             f"round {round_}: {len(x)} labels, greedy agreement {agreement:.3f}, "
             f"student alone {alone:.1f} ({time.time() - started:.0f} s)",
