@@ -180,8 +180,9 @@ class TLACConfig:
     there (``1 - entropy / log n_actions``: nothing for a uniform one; losses.informative_trust),
     so that the student copies the teacher that knows, wherever the high level's trust is
     wrong. informative is the default since 2026-11-24: it lifts the PPO-derived L + R greedy
-    student from 0.61 to 0.89 and holds on every other study set, at a cost on 1 optimal + 2
-    random at 1e5 (0.896 against sampled's 0.945); with a user's plain functions (point masses)
+    student from 0.61 to 0.89 and 3 noisy from 0.00 to 0.35, holds on the other study sets,
+    and costs 1 optimal + 2 random at 1e5 (0.896 against sampled's 0.945; Teacher L alone
+    now trains to 0.817 with a student still at 0.00); with a user's plain functions (point masses)
     it trains bit for bit as sampled (docs/graduation.md, "The teachers' whole advice").
     filtered: as informative, but a teacher's lost trust is not moved to the others, so a
     state whose trusted teachers say little is imitated less (measured no better than
