@@ -314,6 +314,62 @@ def test_low_level_learns_from_the_agents_rows_whatever_the_kl_rule():
     assert rows.loss[0].tolist() == [0.0, 1.0, 0.0, 1.0]
 
 
+def test_uninformed_rows_weigh_the_agents_policy_gradient_by_how_little_teachers_say():
+    """``low_level_data: uninformed``: the agent's rows, each weighted by ``1 - max_k info_k``
+    of the teachers' advice there; teacher rows stay out. Before any advice, the agent's rows
+    (PPO); without an uninformed share (Box actions, sampled labels), none at all."""
+    from tlac.algorithms.tlac_update import row_weights
+
+    data = {
+        "log_prob_low": torch.zeros(4),
+        "log_prob_high": torch.zeros(4),
+        "choices": torch.tensor([0, 2, 1, 2]),  # 2 teachers: choice 2 is the agent
+        "solo": torch.tensor([0.0, 0.0, 0.0, 1.0]),
+    }
+    cfg = TLACConfig.from_settings({"low_level_data": "uninformed"})
+    uninformed = torch.tensor([1.0, 0.25, 1.0, 0.5])
+    rows = row_weights(cfg, data, 2, True, True, has_advice=True, uninformed=uninformed)
+    assert rows.loss[0].tolist() == [0.0, 0.25, 0.0, 0.5]
+    assert row_weights(cfg, data, 2, True, True, True).loss[0].tolist() == [0.0] * 4
+    assert row_weights(cfg, data, 2, True, True, False).loss[0].tolist() == [0.0, 1.0, 0.0, 1.0]
+
+
+def test_uninformed_share_hand_checked():
+    """Four actions: (0.5, 0.5, 0, 0) has information 0.5, a point mass 1, uniform 0; the
+    share is 1 minus the most informative teacher's information, per state."""
+    half = torch.tensor([0.5, 0.5, 0.0, 0.0])
+    point, uniform = torch.tensor([1.0, 0.0, 0.0, 0.0]), torch.full((4,), 0.25)
+    dists = torch.stack(
+        [torch.stack([half, uniform, uniform]), torch.stack([uniform, point, uniform])]
+    )  # (K=2, B=3, A=4)
+    assert losses.uninformed_share(dists).tolist() == pytest.approx([0.5, 0.0, 1.0])
+
+
+def test_uninformed_rows_change_nothing_with_point_mass_teachers():
+    """Plain-function teachers give point masses: every state is informed, so
+    ``low_level_data: uninformed`` trains bit for bit as the default ``none`` (the user
+    suite's figures stand for both). The first model of a process may differ in the last
+    bits (building it switches torch to one thread): none first and again last."""
+    params = []
+    for data in ("none", "uninformed", "none"):
+        teachers = [lambda obs: int(obs[2] > 0), lambda obs: 0]
+        model = TLAC(gym.make("CartPole-v1"), teachers=teachers, seed=3, low_level_data=data)
+        model.learn(640)
+        params.append(torch.cat([p.detach().flatten() for p in model.net.parameters()]))
+    assert torch.equal(params[1], params[2])
+
+
+def test_uninformed_rows_train_the_student_where_no_teacher_knows():
+    """With random teachers alone (uniform advice everywhere) the student's own rows carry the
+    whole policy gradient: the low level moves away from what imitation alone leaves."""
+    params = {}
+    for data in ("none", "uninformed"):
+        model = TLAC("doorkey", teachers=["random"], seed=1, low_level_data=data, solo_budget=1.0)
+        model.learn(320)
+        params[data] = torch.cat([p.detach().flatten() for p in model.net.parameters()])
+    assert not torch.equal(params["none"], params["uninformed"])
+
+
 def test_solo_greedy_episodes_act_as_the_deployed_student():
     """``solo_greedy``: in solo episodes the student takes its greedy action (what
     ``predict(deterministic=True)`` deploys); without it, samples that differ from it."""

@@ -162,17 +162,44 @@ def informative_trust(
     >>> informative_trust(torch.tensor([[0.2, 0.8], [0.2, 0.8]]), dists).tolist()
     [[1.0, 0.0], [0.0, 0.0]]
     """
-    n_actions = distributions.shape[-1]
-    if n_actions < 2:
+    if distributions.shape[-1] < 2:
         return trust
-    entropy = -(distributions * torch.log(distributions.clamp_min(1e-12))).sum(-1)  # (K, B)
-    info = (1.0 - entropy / math.log(n_actions)).clamp_min(0.0).T  # (B, K)
-    weighted = trust * info
+    weighted = trust * advice_information(distributions).T  # (B, K)
     if not keep_total:
         return weighted
     total = weighted.sum(1, keepdim=True)
     scale = torch.where(total > 0, trust.sum(1, keepdim=True) / total.clamp_min(1e-12), 0.0)
     return weighted * scale
+
+
+def advice_information(distributions: torch.Tensor) -> torch.Tensor:
+    """``(K, B)``: how much each teacher's advice says in each state, ``1 - H(pi_k(.|s)) / log
+    A`` for its distribution ``(K, B, A)`` over the ``A`` actions: 1 for a point mass, 0 for the
+    uniform distribution (a random teacher, a partial teacher outside its region).
+
+    >>> uniform, point = torch.full((3,), 1 / 3), torch.tensor([0.0, 1.0, 0.0])
+    >>> advice_information(torch.stack([torch.stack([point, uniform])])).tolist()
+    [[1.0, 0.0]]
+    """
+    n_actions = distributions.shape[-1]
+    if n_actions < 2:
+        return torch.ones(distributions.shape[:-1])
+    entropy = -(distributions * torch.log(distributions.clamp_min(1e-12))).sum(-1)
+    return (1.0 - entropy / math.log(n_actions)).clamp_min(0.0)
+
+
+def uninformed_share(distributions: torch.Tensor) -> torch.Tensor:
+    """``(B,)``: how little even the most informative teacher says in each state, ``1 - max_k
+    info_k(s)`` (:func:`advice_information`): 1 where every teacher is uniform (nobody knows
+    the way: the student must learn it from its own returns), 0 where one teacher gives a
+    point mass. ``low_level_data: uninformed`` weighs the student's policy gradient by it.
+
+    >>> uniform, point = torch.full((3,), 1 / 3), torch.tensor([0.0, 1.0, 0.0])
+    >>> dists = torch.stack([torch.stack([point, uniform]), torch.stack([uniform, uniform])])
+    >>> uninformed_share(dists).tolist()   # state 0: teacher 0 knows; state 1: nobody does
+    [0.0, 1.0]
+    """
+    return (1.0 - advice_information(distributions).max(0).values).clamp_min(0.0)
 
 
 def imitation_loss(neg_log_likelihoods: torch.Tensor, trust: torch.Tensor) -> torch.Tensor:

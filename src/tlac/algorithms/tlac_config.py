@@ -233,10 +233,14 @@ class TLACConfig:
     low_level_data: str | None = None
     """Which transitions train the low level's policy gradient: all (the paper, Eq. 3 on every
     executed action), agent (only where it acted, so every ratio is an importance weight of
-    pi_low's own samples) or none (the imitation term alone trains the low level once the
+    pi_low's own samples), none (the imitation term alone trains the low level once the
     advice buffer holds advice; before that, and without teachers, the agent's rows: what the
     graduate variant has always computed, although until 2026-11-23 its defaults said agent,
-    docs/graduation.md). None: the variant's (graduate none, paper all)."""
+    docs/graduation.md) or uninformed (the agent's rows, each weighted by how little even the
+    most informative teacher says there, ``1 - max_k info_k(s)``: losses.uninformed_share; so
+    the student learns from its own returns exactly where no teacher knows the way, as Teacher
+    L's right room; with discrete distribution labels only, else as none). None: the
+    variant's (graduate none, paper all)."""
     selector: str = "learned"
     """High level: learned (TL-AC), random or ucb1 (per episode) -- the Figure 11 ablations."""
     ucb_c: float = 1.0
@@ -308,7 +312,7 @@ class TLACConfig:
             ("obs_encoding", list(ENCODINGS)),
             ("trust", list(losses.TRUST_RULES)),
             ("advice_labels", ["sampled", "distribution", "informative", "filtered"]),
-            ("low_level_data", ["all", "agent", "none"]),
+            ("low_level_data", ["all", "agent", "none", "uninformed"]),
             ("vec_env", ["dummy", "subproc"]),
             ("selector", list(SELECTOR_NAMES)),
         ):

@@ -37,11 +37,14 @@ def row_weights(
     train_high: bool,
     solo: bool,
     has_advice: bool,
+    uninformed: torch.Tensor | None = None,
 ) -> RowWeights:
     """The rows of an update (``data``: the flat rollout). ``solo``: some episodes are the
     student's alone (no high-level choice in them); ``has_advice``: the advice buffer already
     holds states from earlier updates (``kl_rows: high`` falls back to the agent's rows while
-    it is empty, as on the very first update).
+    it is empty, as on the very first update); ``uninformed`` ``(n,)``: how little the teachers'
+    advice says in each row (losses.uninformed_share), for ``low_level_data: uninformed``
+    (None: every row is informed, so it trains as ``none``).
 
     >>> cfg = TLACConfig.from_settings({"variant": "paper"})
     >>> data = {"log_prob_low": torch.zeros(3), "log_prob_high": torch.ones(3),
@@ -65,10 +68,19 @@ def row_weights(
     kl = torch.stack([low_kl_rows, high_rows])[:levels]
     # the rows of the low level's policy gradient: "agent", only where it acted; "none", none
     # once the imitation term has advice to learn from (before that, on the first update, and
-    # in every update without teachers: the agent's rows, so it is PPO); "all", every row
+    # in every update without teachers: the agent's rows, so it is PPO); "uninformed", the
+    # agent's rows weighted by how little its teachers say there (where no teacher knows the
+    # way, the student learns it from its own returns); "all", every row
+    if not has_advice:
+        quiet = agent_rows
+    elif uninformed is None:
+        quiet = torch.zeros(n)
+    else:
+        quiet = agent_rows * uninformed
     low_loss_rows = {
         "agent": agent_rows,
-        "none": torch.zeros(n) if has_advice else agent_rows,
+        "none": agent_rows if not has_advice else torch.zeros(n),
+        "uninformed": quiet,
         "all": torch.ones(n),
     }[cfg.low_level_data]
     every_row = cfg.low_level_data == "all" and not solo  # the paper variant: no weights at all

@@ -240,22 +240,28 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             group["lr"] = lr
         data = ro.flat()
         n = data["obs"].shape[0]
-        rows = row_weights(
-            cfg,
-            data,
-            self.n_teachers,
-            self.train_high,
-            self.solo is not None,
-            bool(self.advice_buffer),
-        )
+        has_advice = bool(self.advice_buffer)
         # graduation (docs/graduation.md): what every teacher advises in every collected state,
         # imitated by the low level in proportion to the high level's trust in that teacher
         distill = self.distill_schedule(progress_remaining)
         if cfg.wean_imitation and self.solo is not None:
             distill *= 1.0 - self.solo.competence
         imitates = self.advice_buffer is not None and distill > 0
+        uninformed = None
         if imitates:
-            self.advice_buffer.add(data["obs"], self._advice_on(data["obs"]))
+            advice = self._advice_on(data["obs"])
+            self.advice_buffer.add(data["obs"], advice)
+            if cfg.low_level_data == "uninformed" and advice.is_floating_point() and self.discrete:
+                uninformed = losses.uninformed_share(advice)
+        rows = row_weights(
+            cfg,
+            data,
+            self.n_teachers,
+            self.train_high,
+            self.solo is not None,
+            has_advice,
+            uninformed,
+        )
         log, imitation_only = UpdateLog(), False
         for _epoch in range(cfg.n_epochs):
             self._n_updates += 1  # epochs begun, as SB3's train/n_updates counts them
