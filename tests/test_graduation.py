@@ -351,12 +351,28 @@ def test_uninformed_rows_change_nothing_with_point_mass_teachers():
     suite's figures stand for both). The first model of a process may differ in the last
     bits (building it switches torch to one thread): none first and again last."""
     params = []
-    for data in ("none", "uninformed", "none"):
+    for data in ("none", "uninformed", "silent", "none"):
         teachers = [lambda obs: int(obs[2] > 0), lambda obs: 0]
         model = TLAC(gym.make("CartPole-v1"), teachers=teachers, seed=3, low_level_data=data)
         model.learn(640)
         params.append(torch.cat([p.detach().flatten() for p in model.net.parameters()]))
-    assert torch.equal(params[1], params[2])
+    assert torch.equal(params[1], params[3]) and torch.equal(params[2], params[3])
+
+
+def test_silent_rows_change_nothing_where_a_teacher_always_speaks():
+    """A good and a noisy DoorKey teacher are never uniform, so no state is silent and
+    ``low_level_data: silent`` trains bit for bit as ``none`` (their figures stand for both);
+    with a random teacher alone every state is silent and the student's rows train it."""
+    params = {}
+    for teachers in (["good", "noisy"], ["random"]):
+        for data in ("none", "silent", "none"):
+            model = TLAC("doorkey", teachers=teachers, seed=1, low_level_data=data, solo_budget=1.0)
+            model.learn(320)
+            params[teachers[0], data] = torch.cat(
+                [p.detach().flatten() for p in model.net.parameters()]
+            )
+    assert torch.equal(params["good", "silent"], params["good", "none"])
+    assert not torch.equal(params["random", "silent"], params["random", "none"])
 
 
 def test_uninformed_rows_train_the_student_where_no_teacher_knows():

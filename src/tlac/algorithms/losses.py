@@ -202,6 +202,25 @@ def uninformed_share(distributions: torch.Tensor) -> torch.Tensor:
     return (1.0 - advice_information(distributions).max(0).values).clamp_min(0.0)
 
 
+SILENT_INFORMATION = 1e-3
+"""A state's advice is silent where no teacher's information exceeds this (``1 - H / log A``):
+every teacher is uniform there, as a random teacher everywhere or a partial one outside its
+region, up to rounding."""
+
+
+def silent_states(distributions: torch.Tensor) -> torch.Tensor:
+    """``(B,)``: 1.0 where every teacher's advice is uniform (information at most
+    :data:`SILENT_INFORMATION`), 0.0 where at least one says something.
+    ``low_level_data: silent`` trains the student's policy gradient on those states only.
+
+    >>> uniform, good = torch.full((3,), 1 / 3), torch.tensor([0.1, 0.8, 0.1])
+    >>> dists = torch.stack([torch.stack([good, uniform]), torch.stack([uniform, uniform])])
+    >>> silent_states(dists).tolist()   # state 0: teacher 0 says something; state 1: nobody
+    [0.0, 1.0]
+    """
+    return (advice_information(distributions).max(0).values <= SILENT_INFORMATION).float()
+
+
 def imitation_loss(neg_log_likelihoods: torch.Tensor, trust: torch.Tensor) -> torch.Tensor:
     """The graduate variant's imitation term: ``mean_s sum_k trust[s, k] * nll[k, s]``.
 

@@ -239,8 +239,11 @@ class TLACConfig:
     docs/graduation.md) or uninformed (the agent's rows, each weighted by how little even the
     most informative teacher says there, ``1 - max_k info_k(s)``: losses.uninformed_share; so
     the student learns from its own returns exactly where no teacher knows the way, as Teacher
-    L's right room; with discrete distribution labels only, else as none). None: the
-    variant's (graduate none, paper all)."""
+    L's right room; with discrete distribution labels only, else as none; measured slower than
+    none wherever a teacher is good or noisy, docs/graduation.md) or silent (the agent's rows
+    in the states where every teacher's advice is uniform, losses.silent_states: a random
+    teacher, a partial one outside its region; elsewhere as none). None: the variant's
+    (graduate none, paper all)."""
     selector: str = "learned"
     """High level: learned (TL-AC), random or ucb1 (per episode) -- the Figure 11 ablations."""
     ucb_c: float = 1.0
@@ -312,7 +315,7 @@ class TLACConfig:
             ("obs_encoding", list(ENCODINGS)),
             ("trust", list(losses.TRUST_RULES)),
             ("advice_labels", ["sampled", "distribution", "informative", "filtered"]),
-            ("low_level_data", ["all", "agent", "none", "uninformed"]),
+            ("low_level_data", ["all", "agent", "none", "uninformed", "silent"]),
             ("vec_env", ["dummy", "subproc"]),
             ("selector", list(SELECTOR_NAMES)),
         ):

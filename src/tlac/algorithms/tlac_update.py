@@ -43,8 +43,9 @@ def row_weights(
     student's alone (no high-level choice in them); ``has_advice``: the advice buffer already
     holds states from earlier updates (``kl_rows: high`` falls back to the agent's rows while
     it is empty, as on the very first update); ``uninformed`` ``(n,)``: how little the teachers'
-    advice says in each row (losses.uninformed_share), for ``low_level_data: uninformed``
-    (None: every row is informed, so it trains as ``none``).
+    advice says in each row (losses.uninformed_share, or losses.silent_states' 0 / 1), for
+    ``low_level_data: uninformed`` / ``silent`` (None: every row is informed, so it trains as
+    ``none``).
 
     >>> cfg = TLACConfig.from_settings({"variant": "paper"})
     >>> data = {"log_prob_low": torch.zeros(3), "log_prob_high": torch.ones(3),
@@ -70,7 +71,8 @@ def row_weights(
     # once the imitation term has advice to learn from (before that, on the first update, and
     # in every update without teachers: the agent's rows, so it is PPO); "uninformed", the
     # agent's rows weighted by how little its teachers say there (where no teacher knows the
-    # way, the student learns it from its own returns); "all", every row
+    # way, the student learns it from its own returns); "silent", the agent's rows where every
+    # teacher is uniform; "all", every row
     if not has_advice:
         quiet = agent_rows
     elif uninformed is None:
@@ -81,6 +83,7 @@ def row_weights(
         "agent": agent_rows,
         "none": agent_rows if not has_advice else torch.zeros(n),
         "uninformed": quiet,
+        "silent": quiet,
         "all": torch.ones(n),
     }[cfg.low_level_data]
     every_row = cfg.low_level_data == "all" and not solo  # the paper variant: no weights at all

@@ -251,8 +251,11 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         if imitates:
             advice = self._advice_on(data["obs"])
             self.advice_buffer.add(data["obs"], advice)
-            if cfg.low_level_data == "uninformed" and advice.is_floating_point() and self.discrete:
-                uninformed = losses.uninformed_share(advice)
+            if advice.is_floating_point() and self.discrete:  # distributions
+                if cfg.low_level_data == "uninformed":
+                    uninformed = losses.uninformed_share(advice)
+                elif cfg.low_level_data == "silent":
+                    uninformed = losses.silent_states(advice)
         rows = row_weights(
             cfg,
             data,
