@@ -305,8 +305,7 @@ def test_low_level_learns_from_the_agents_rows_whatever_the_kl_rule():
         assert rows.loss[1].tolist() == [1.0, 1.0, 1.0, 0.0]  # the high level chose nothing solo
     rows = row_weights(cfg, data, 2, True, True, has_advice=True)
     assert rows.kl[0].tolist() == [1.0, 1.0, 1.0, 1.0]  # kl_rows all
-    cfg = TLACConfig.from_settings({})  # the graduate default: imitation alone
-    assert cfg.low_level_data == "none" and cfg.kl_rows == "high"
+    cfg = TLACConfig.from_settings({"low_level_data": "none"})  # imitation alone
     rows = row_weights(cfg, data, 2, True, True, has_advice=True)
     assert rows.loss[0].tolist() == [0.0] * 4
     # no advice yet (the first update) or no teachers at all: the agent's rows, as PPO
@@ -326,6 +325,11 @@ def test_uninformed_rows_weigh_the_agents_policy_gradient_by_how_little_teachers
         "choices": torch.tensor([0, 2, 1, 2]),  # 2 teachers: choice 2 is the agent
         "solo": torch.tensor([0.0, 0.0, 0.0, 1.0]),
     }
+    cfg = TLACConfig.from_settings({})  # the graduate default since 2026-11-24: silent
+    assert cfg.low_level_data == "silent" and cfg.kl_rows == "high"
+    silent = torch.tensor([1.0, 0.0, 1.0, 1.0])
+    rows = row_weights(cfg, data, 2, True, True, has_advice=True, uninformed=silent)
+    assert rows.loss[0].tolist() == [0.0, 0.0, 0.0, 1.0]  # the agent's silent rows
     cfg = TLACConfig.from_settings({"low_level_data": "uninformed"})
     uninformed = torch.tensor([1.0, 0.25, 1.0, 0.5])
     rows = row_weights(cfg, data, 2, True, True, has_advice=True, uninformed=uninformed)

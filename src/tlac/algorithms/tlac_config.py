@@ -25,9 +25,11 @@ VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
     "graduate": {
         "distill_coef": 1.0,
         "advice_cost": 0.0,
-        # the low level learns from the imitation term alone: what every figure of the graduate
-        # variant in docs/graduation.md measured ("agent" was measured worse there)
-        "low_level_data": "none",
+        # the low level learns from the imitation term, and from its own returns only in the
+        # states where every teacher is silent (uniform): since 2026-11-24 (afternoon); before,
+        # imitation alone ("none"), which trains bit for bit the same wherever a teacher speaks
+        # ("agent" was measured worse; docs/graduation.md, "Where no teacher knows the way")
+        "low_level_data": "silent",
         "solo_budget": 0.05,
         "kl_rows": "high",
         "obs_encoding": "auto",
@@ -242,8 +244,9 @@ class TLACConfig:
     L's right room; with discrete distribution labels only, else as none; measured slower than
     none wherever a teacher is good or noisy, docs/graduation.md) or silent (the agent's rows
     in the states where every teacher's advice is uniform, losses.silent_states: a random
-    teacher, a partial one outside its region; elsewhere as none). None: the variant's
-    (graduate none, paper all)."""
+    teacher, a partial one outside its region; elsewhere as none: Teacher L's student alone
+    0.00 -> 0.54, docs/graduation.md). None: the variant's (graduate silent since 2026-11-24,
+    none before; paper all)."""
     selector: str = "learned"
     """High level: learned (TL-AC), random or ucb1 (per episode) -- the Figure 11 ablations."""
     ucb_c: float = 1.0
