@@ -238,15 +238,16 @@ class TLACConfig:
     pi_low's own samples), none (the imitation term alone trains the low level once the
     advice buffer holds advice; before that, and without teachers, the agent's rows: what the
     graduate variant has always computed, although until 2026-11-23 its defaults said agent,
-    docs/graduation.md) or uninformed (the agent's rows, each weighted by how little even the
-    most informative teacher says there, ``1 - max_k info_k(s)``: losses.uninformed_share; so
-    the student learns from its own returns exactly where no teacher knows the way, as Teacher
-    L's right room; with discrete distribution labels only, else as none; measured slower than
-    none wherever a teacher is good or noisy, docs/graduation.md) or silent (the agent's rows
-    in the states where every teacher's advice is uniform, losses.silent_states: a random
-    teacher, a partial one outside its region; elsewhere as none: Teacher L's student alone
-    0.00 -> 0.54, docs/graduation.md). None: the variant's (graduate silent since 2026-11-24,
-    none before; paper all)."""
+    docs/graduation.md), silent (the agent's rows in the states where every teacher's advice
+    is uniform, losses.silent_states: a random teacher, a partial one outside its region, so
+    the student learns from its own returns where no teacher knows the way; elsewhere as none,
+    bit for bit: Teacher L's greedy student alone 0.00 -> 0.60, 3 seeds, docs/graduation.md)
+    or uninformed (the agent's rows, each weighted by how little even the most informative
+    teacher says there, ``1 - max_k info_k(s)``: losses.uninformed_share; measured slower than
+    none wherever a teacher is good or noisy). silent and uninformed read the teachers'
+    distributions: with discrete actions and ``advice_labels`` other than sampled only, else
+    they train as none. None: the variant's (graduate silent since 2026-11-24, none before;
+    paper all)."""
     selector: str = "learned"
     """High level: learned (TL-AC), random or ucb1 (per episode) -- the Figure 11 ablations."""
     ucb_c: float = 1.0
