@@ -241,7 +241,7 @@ class TLACConfig:
     docs/graduation.md), silent (the agent's rows in the states where every teacher's advice
     is uniform, losses.silent_states: a random teacher, a partial one outside its region, so
     the student learns from its own returns where no teacher knows the way; elsewhere as none,
-    bit for bit: Teacher L's greedy student alone 0.00 -> 0.60, 3 seeds, docs/graduation.md)
+    bit for bit: Teacher L's greedy student alone 0.00 -> 0.64, 5 seeds, docs/graduation.md)
     or uninformed (the agent's rows, each weighted by how little even the most informative
     teacher says there, ``1 - max_k info_k(s)``: losses.uninformed_share; measured slower than
     none wherever a teacher is good or noisy). silent and uninformed read the teachers'
