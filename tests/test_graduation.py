@@ -314,9 +314,10 @@ def test_low_level_learns_from_the_agents_rows_whatever_the_kl_rule():
 
 
 def test_uninformed_rows_weigh_the_agents_policy_gradient_by_how_little_teachers_say():
-    """``low_level_data: uninformed``: the agent's rows, each weighted by ``1 - max_k info_k``
-    of the teachers' advice there; teacher rows stay out. Before any advice, the agent's rows
-    (PPO); without an uninformed share (Box actions, sampled labels), none at all."""
+    """``low_level_data: silent`` (the graduate default) and ``uninformed``: the agent's rows,
+    each weighted by the silent flag / ``1 - max_k info_k`` of the teachers' advice there;
+    teacher rows stay out. Before any advice, the agent's rows (PPO); without a weight (Box
+    actions, sampled labels), none at all."""
     from tlac.algorithms.tlac_update import row_weights
 
     data = {
@@ -351,8 +352,8 @@ def test_uninformed_share_hand_checked():
 
 def test_uninformed_rows_change_nothing_with_point_mass_teachers():
     """Plain-function teachers give point masses: every state is informed, so
-    ``low_level_data: uninformed`` trains bit for bit as the default ``none`` (the user
-    suite's figures stand for both). The first model of a process may differ in the last
+    ``low_level_data: uninformed`` and ``silent`` (the default) train bit for bit as ``none``
+    (the user suite's figures, made with none, stand for them). The first model of a process may differ in the last
     bits (building it switches torch to one thread): none first and again last."""
     params = []
     for data in ("none", "uninformed", "silent", "none"):
