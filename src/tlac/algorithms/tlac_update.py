@@ -67,25 +67,20 @@ def row_weights(
     rule = cfg.kl_rows if cfg.kl_rows != "high" or has_advice else "agent"
     low_kl_rows = {"agent": agent_rows, "all": torch.ones(n), "high": torch.zeros(n)}[rule]
     kl = torch.stack([low_kl_rows, high_rows])[:levels]
-    # the rows of the low level's policy gradient: "agent", only where it acted; "none", none
-    # once the imitation term has advice to learn from (before that, on the first update, and
-    # in every update without teachers: the agent's rows, so it is PPO); "uninformed", the
-    # agent's rows weighted by how little its teachers say there (where no teacher knows the
-    # way, the student learns it from its own returns); "silent", the agent's rows where every
-    # teacher is uniform; "all", every row
-    if not has_advice:
-        quiet = agent_rows
+    # the rows of the low level's policy gradient: "agent", only where it acted; "all", every
+    # row; "none", "uninformed" and "silent": before the imitation term has advice to learn
+    # from (the first update, and every update without teachers) the agent's rows, so it is
+    # PPO; after, the agent's rows weighted by ``uninformed`` (how little its teachers say
+    # there: where no teacher knows the way, the student learns it from its own returns),
+    # none at all without it (the caller gives none for "none")
+    if cfg.low_level_data == "all":
+        low_loss_rows = torch.ones(n)
+    elif cfg.low_level_data == "agent" or not has_advice:
+        low_loss_rows = agent_rows
     elif uninformed is None:
-        quiet = torch.zeros(n)
+        low_loss_rows = torch.zeros(n)
     else:
-        quiet = agent_rows * uninformed
-    low_loss_rows = {
-        "agent": agent_rows,
-        "none": agent_rows if not has_advice else torch.zeros(n),
-        "uninformed": quiet,
-        "silent": quiet,
-        "all": torch.ones(n),
-    }[cfg.low_level_data]
+        low_loss_rows = agent_rows * uninformed
     every_row = cfg.low_level_data == "all" and not solo  # the paper variant: no weights at all
     loss = None if every_row else torch.stack([low_loss_rows, high_rows])[:levels]
     # solo_critic False: the critic fits the returns of assisted episodes only
