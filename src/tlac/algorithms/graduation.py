@@ -263,3 +263,90 @@ class AdviceBuffer:
         (n_teachers, n, ...))``."""
         idx = torch.randint(self.size, (n,), generator=generator)
         return self.obs[idx], self.advice[idx].transpose(0, 1)
+
+
+class SelfImitationBuffer:
+    """Self-imitation (Oh et al. 2018) where no teacher knows the way: the student's own
+    actions in the states where every teacher is silent, each with the discounted return that
+    followed it in its episode (Monte-Carlo, known once the episode ends), in a ring of
+    ``capacity`` rows. The update imitates the replayed actions whose return beat the critic's
+    value of their state (a 0/1 filter, as the Q-filter of Nair et al. 2018), which sharpens
+    the student onto what worked: the policy gradient alone, whose signal there is one wasted
+    step (~1% of the value), left the greedy student looping (docs/graduation.md).
+
+    Rows wait per environment until their episode ends (``add``, one rollout at a time);
+    only the rows marked ``keep`` are stored, the others only carry rewards.
+
+    >>> buf = SelfImitationBuffer(capacity=4, obs_dim=1, n_envs=1, gamma=0.5)
+    >>> obs = torch.arange(3.0).view(3, 1, 1)              # (T, E, obs_dim)
+    >>> buf.add(obs, torch.tensor([[0], [1], [2]]), torch.tensor([[0.0], [0.0], [1.0]]),
+    ...         torch.tensor([[0.0], [0.0], [1.0]]), torch.tensor([[1.0], [0.0], [1.0]]))
+    >>> len(buf), buf.actions[:2].tolist(), buf.returns[:2].tolist()   # last row first; 0.5 ** 2 * 1
+    (2, [2, 0], [1.0, 0.25])
+    """
+
+    def __init__(self, capacity: int, obs_dim: int, n_envs: int, gamma: float):
+        self.obs = torch.zeros(capacity, obs_dim)
+        self.actions = torch.zeros(capacity, dtype=torch.int64)
+        self.returns = torch.zeros(capacity)
+        self.capacity, self.gamma = capacity, gamma
+        self.size = 0
+        self.next = 0
+        # per environment, the rows of its unfinished episode: [obs or None, action, reward]
+        self.pending: list[list[list]] = [[] for _ in range(n_envs)]
+
+    def __len__(self) -> int:
+        return self.size
+
+    def add(
+        self,
+        obs: torch.Tensor,
+        actions: torch.Tensor,
+        rewards: torch.Tensor,
+        dones: torch.Tensor,
+        keep: torch.Tensor,
+    ) -> None:
+        """One rollout, time-major: ``obs`` ``(T, E, obs_dim)``, the others ``(T, E)``."""
+        for e, rows in enumerate(self.pending):
+            for t in range(obs.shape[0]):
+                kept = bool(keep[t, e] > 0)
+                rows.append([obs[t, e].clone() if kept else None, int(actions[t, e]), float(rewards[t, e])])
+                if dones[t, e] > 0:
+                    self._finish(rows)
+                    rows.clear()
+
+    def _finish(self, rows: list[list]) -> None:
+        """Store the kept rows of an ended episode with their discounted returns-to-go."""
+        ret = 0.0
+        for obs, action, reward in reversed(rows):
+            ret = reward + self.gamma * ret
+            if obs is not None:
+                self.obs[self.next], self.actions[self.next], self.returns[self.next] = obs, action, ret
+                self.next = (self.next + 1) % self.capacity
+                self.size = min(self.size + 1, self.capacity)
+
+    def sample(
+        self, n: int, generator: torch.Generator
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """``n`` rows drawn uniformly with replacement: (obs, actions, returns)."""
+        idx = torch.randint(self.size, (n,), generator=generator)
+        return self.obs[idx], self.actions[idx], self.returns[idx]
+
+    def state(self) -> dict[str, Any]:
+        """Plain data and tensors, for a checkpoint."""
+        return {
+            "obs": self.obs[: self.size].clone(),
+            "actions": self.actions[: self.size].clone(),
+            "returns": self.returns[: self.size].clone(),
+            "next": self.next,
+            "size": self.size,
+            "pending": [[list(r) for r in rows] for rows in self.pending],
+        }
+
+    def restore(self, state: dict[str, Any]) -> None:
+        size = state["size"]
+        self.obs[:size], self.actions[:size], self.returns[:size] = (
+            state["obs"], state["actions"], state["returns"]
+        )
+        self.next, self.size = state["next"], size
+        self.pending = [[list(r) for r in rows] for rows in state["pending"]]

@@ -221,6 +221,21 @@ def silent_states(distributions: torch.Tensor) -> torch.Tensor:
     return (advice_information(distributions).max(0).values <= SILENT_INFORMATION).float()
 
 
+def self_imitation_loss(
+    log_probs: torch.Tensor, returns: torch.Tensor, values: torch.Tensor
+) -> torch.Tensor:
+    """Self-imitation (Oh et al. 2018, Eq. 1's policy term) with a 0/1 filter for its clipped
+    advantage ``max(R - V(s), 0)``: the negative log-likelihood of the student's own replayed
+    actions whose Monte-Carlo return ``R`` beat the critic's value of their state (the
+    Q-filter of Nair et al. 2018), averaged over the minibatch.
+
+    >>> lp = torch.log(torch.tensor([0.5, 0.25]))
+    >>> round(float(self_imitation_loss(lp, torch.tensor([1.0, 0.2]), torch.tensor([0.5, 0.5]))), 4)
+    0.3466
+    """
+    return -(log_probs * (returns > values).float()).mean()
+
+
 def imitation_loss(neg_log_likelihoods: torch.Tensor, trust: torch.Tensor) -> torch.Tensor:
     """The graduate variant's imitation term: ``mean_s sum_k trust[s, k] * nll[k, s]``.
 

@@ -248,6 +248,12 @@ class TLACConfig:
     distributions: with discrete actions and ``advice_labels`` other than sampled only, else
     they train as none. None: the variant's (graduate silent since 2026-11-24, none before;
     paper all)."""
+    self_imitation: float = 0.0
+    """With ``low_level_data: silent``: weight of self-imitation in the silent states
+    (tlac.algorithms.graduation.SelfImitationBuffer; Oh et al. 2018): the student's own actions
+    there whose Monte-Carlo return beat the critic's value are imitated from a replay of
+    ``imitation_buffer_size`` rows, ``imitation_batch_size`` per minibatch. 0: off. Where some
+    teacher always speaks there are no silent states and it changes nothing."""
     selector: str = "learned"
     """High level: learned (TL-AC), random or ucb1 (per episode) -- the Figure 11 ablations."""
     ucb_c: float = 1.0
@@ -309,6 +315,7 @@ class TLACConfig:
             "ent_cap_high",
             "solo_budget",
             "awr_coef",
+            "self_imitation",
         ):
             check.number(name, getattr(self, name), 0.0)
         for name in ("awr_beta", "norm_clip", "imitation_std"):

@@ -218,6 +218,10 @@ class TLACPersistence:
             "rng": self.rng.bit_generator.state,
             "generator": self.generator.get_state(),
             "replay_generator": self._replay_generator.get_state(),
+            "self_imitation_generator": self._self_imitation_generator.get_state(),
+            "self_imitation": None
+            if self.self_imitation_buffer is None
+            else self.self_imitation_buffer.state(),
             "selector": attributes_state(self.selector),
             "solo": None if self.solo is None else attributes_state(self.solo),
             "advice": None
@@ -243,6 +247,10 @@ class TLACPersistence:
         self.rng.bit_generator.state = state["rng"]
         self.generator.set_state(state["generator"])
         self._replay_generator.set_state(state["replay_generator"])
+        if "self_imitation_generator" in state:  # checkpoints from before self-imitation lack it
+            self._self_imitation_generator.set_state(state["self_imitation_generator"])
+        if state.get("self_imitation") is not None and self.self_imitation_buffer is not None:
+            self.self_imitation_buffer.restore(state["self_imitation"])
         restore_attributes(self.selector, state["selector"])
         if (state["solo"] is None) != (self.solo is None):
             raise ConfigError("the checkpoint's solo-episode statistics do not match the settings")

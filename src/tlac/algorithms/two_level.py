@@ -35,7 +35,12 @@ from tlac.algorithms.common import (
     make_progress_bar,
     stop_if_not_finite,
 )
-from tlac.algorithms.graduation import AdviceBuffer, SoloEpisodes, StudentSnapshot
+from tlac.algorithms.graduation import (
+    AdviceBuffer,
+    SelfImitationBuffer,
+    SoloEpisodes,
+    StudentSnapshot,
+)
 from tlac.algorithms.nets import LOW, np_log_softmax
 from tlac.algorithms.rollout import Rollout, compute_gae
 from tlac.algorithms.tlac_config import VARIANT_DEFAULTS, TLACConfig, resolve_settings  # noqa: F401  (VARIANT_DEFAULTS: re-exported)
@@ -142,6 +147,19 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 torch.int64 if len(shape) == 1 else torch.float32,
             )
         self._replay_generator = torch.Generator().manual_seed(self.seed + 1)
+        # self-imitation in the silent states (only rows there are stored: where some teacher
+        # always speaks the buffer stays empty, nothing is drawn, and training is unchanged)
+        self.self_imitation_buffer: SelfImitationBuffer | None = None
+        if (
+            cfg.self_imitation
+            and cfg.low_level_data == "silent"
+            and self.advice_buffer is not None
+            and self.discrete
+        ):
+            self.self_imitation_buffer = SelfImitationBuffer(
+                cfg.imitation_buffer_size, self.obs_dim, self.n_envs, cfg.gamma
+            )
+        self._self_imitation_generator = torch.Generator().manual_seed(self.seed + 2)
         self.solo: SoloEpisodes | None = None
         if cfg.solo_budget and self.n_teachers:
             self.solo = SoloEpisodes(self.n_envs, cfg.solo_budget, self.seed)
@@ -265,6 +283,16 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             has_advice,
             uninformed,
         )
+        if self.self_imitation_buffer is not None:
+            silent = torch.zeros(n) if uninformed is None else uninformed
+            keep = (data["choices"] == self.n_teachers).float() * silent
+            self.self_imitation_buffer.add(
+                torch.from_numpy(ro.obs),
+                torch.from_numpy(ro.actions),
+                torch.from_numpy(ro.rewards),
+                torch.from_numpy(ro.dones),
+                keep.view(ro.dones.shape),
+            )
         log, imitation_only = UpdateLog(), False
         for _epoch in range(cfg.n_epochs):
             self._n_updates += 1  # epochs begun, as SB3's train/n_updates counts them
@@ -351,6 +379,15 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             imitation = self._replayed_imitation()
             loss = loss + distill * imitation
             log.imitation.append(imitation.detach())
+        sil = self.self_imitation_buffer
+        if sil is not None and len(sil) >= cfg.imitation_batch_size:
+            obs, actions, returns = sil.sample(
+                cfg.imitation_batch_size, self._self_imitation_generator
+            )
+            _, low, hidden = self._replay_heads(obs)
+            loss = loss + cfg.self_imitation * losses.self_imitation_loss(
+                self._low_log_prob(low, hidden, actions), returns, self._replay_values(obs)
+            )
         if self._use_entropy:  # skipped when both coefficients are 0 (Table 5)
             entropies = self._mean_entropies(high_logits, low_out, latent, cfg.ent_cap_high or None)
             loss = loss - (self._ent_coefs[: len(entropies)] * entropies).sum()
