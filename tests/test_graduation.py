@@ -369,21 +369,54 @@ def test_silent_rows_change_nothing_where_a_teacher_always_speaks():
     """A good and a noisy DoorKey teacher are never uniform, so no state is silent and
     ``low_level_data: silent`` trains bit for bit as ``none`` (their figures stand for both);
     with a random teacher alone every state is silent (and wholly uninformed), and the
-    student's own rows carry the policy gradient that imitation alone leaves at nothing."""
+    student's own rows carry the policy gradient that imitation alone leaves at nothing.
+    Self-imitation stores only silent rows, so it too changes nothing with good + noisy."""
     params = {}
     for teachers, settings in (
-        (["good", "noisy"], ("none", "silent", "none")),
+        (["good", "noisy"], ("none", "silent", "silent+sil", "none")),
         (["random"], ("none", "silent", "uninformed", "none")),
     ):
         for data in settings:
-            model = TLAC("doorkey", teachers=teachers, seed=1, low_level_data=data, solo_budget=1.0)
-            model.learn(320)
+            model = TLAC(
+                "doorkey",
+                teachers=teachers,
+                seed=1,
+                low_level_data=data.split("+")[0],
+                solo_budget=1.0,
+                self_imitation=1.0 if data.endswith("+sil") else 0.0,
+            )
+            model.learn(992 if data.endswith("+sil") else 320)  # sil: episodes end, rows could land
+            if data.endswith("+sil"):
+                assert len(model.self_imitation_buffer) == 0
+                continue
             params[teachers[0], data] = torch.cat(
                 [p.detach().flatten() for p in model.net.parameters()]
             )
     assert torch.equal(params["good", "silent"], params["good", "none"])
     assert not torch.equal(params["random", "silent"], params["random", "none"])
     assert not torch.equal(params["random", "uninformed"], params["random", "none"])
+
+
+def test_self_imitation_replays_silent_rows_with_their_returns_and_trains_on_them():
+    """With a random teacher every state is silent: the student's rows of each ended episode
+    land in the replay with their discounted returns (a truncated DoorKey episode: the
+    bootstrap gamma * V(last state) discounted back), and the imitation of those that beat the
+    critic moves the low level away from the run without it (the test can fail)."""
+    params = {}
+    for coef in (0.0, 1.0):
+        model = TLAC(
+            "doorkey", teachers=["random"], seed=2, solo_budget=1.0, self_imitation=coef
+        )
+        model.learn(1200, progress_bar=False)
+        params[coef] = torch.cat([p.detach().flatten() for p in model.net.parameters()])
+    buf = model.self_imitation_buffer
+    assert buf is not None and len(buf) >= 2 * 400  # two ended episodes (490 steps at most)
+    rets = buf.returns[: len(buf)]
+    # stored from the episode's last step back: no reward before the end, so each earlier
+    # step's return is the later one discounted by gamma
+    assert torch.allclose(rets[1:100], model.config.gamma * rets[:99])
+    assert not torch.equal(params[0.0], params[1.0])
+    assert TLAC("doorkey", teachers=["random"], low_level_data="none", self_imitation=1.0).self_imitation_buffer is None
 
 
 def test_solo_greedy_episodes_act_as_the_deployed_student():

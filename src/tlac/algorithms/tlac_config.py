@@ -254,6 +254,10 @@ class TLACConfig:
     there whose Monte-Carlo return beat the critic's value are imitated from a replay of
     ``imitation_buffer_size`` rows, ``imitation_batch_size`` per minibatch. 0: off. Where some
     teacher always speaks there are no silent states and it changes nothing."""
+    self_imitation_value: float = 0.0
+    """With self_imitation: weight of SIL's value term ``0.5 max(R - V(s), 0)^2`` on the
+    shared critic (Oh et al. 2018), which lifts V towards the best returns seen so that the
+    filter keeps only the actions that did best. 0: off."""
     selector: str = "learned"
     """High level: learned (TL-AC), random or ucb1 (per episode) -- the Figure 11 ablations."""
     ucb_c: float = 1.0
@@ -316,6 +320,7 @@ class TLACConfig:
             "solo_budget",
             "awr_coef",
             "self_imitation",
+            "self_imitation_value",
         ):
             check.number(name, getattr(self, name), 0.0)
         for name in ("awr_beta", "norm_clip", "imitation_std"):

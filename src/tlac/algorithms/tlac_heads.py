@@ -144,12 +144,12 @@ class TLACHeads:
         low, hidden = self.net.forward_member(x, LOW)
         return high, low[:, : self.net.out_dims[LOW]], hidden[:, : self.config.net_arch_low[-1]]
 
-    def _replay_values(self, obs: torch.Tensor) -> torch.Tensor:
-        """The critic's values of replayed raw observations, without gradient."""
+    def _replay_values(self, obs: torch.Tensor, grad: bool = False) -> torch.Tensor:
+        """The critic's values of replayed raw observations (with autograd if ``grad``)."""
         if self.normalizer is not None:
             obs = self.normalizer.obs_torch(obs)
         x = obs if self.encoder is None else self.encoder.torch(obs)
-        with torch.no_grad():
+        with torch.set_grad_enabled(grad):
             return self.net.forward_member(x, CRITIC)[0][:, 0]
 
     def _act_heads(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -385,9 +385,13 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 cfg.imitation_batch_size, self._self_imitation_generator
             )
             _, low, hidden = self._replay_heads(obs)
+            values = self._replay_values(obs, grad=bool(cfg.self_imitation_value))
             loss = loss + cfg.self_imitation * losses.self_imitation_loss(
-                self._low_log_prob(low, hidden, actions), returns, self._replay_values(obs)
+                self._low_log_prob(low, hidden, actions), returns, values.detach()
             )
+            if cfg.self_imitation_value:  # SIL's value term: V up towards the best returns
+                lower = (returns - values).clamp(min=0.0)
+                loss = loss + cfg.self_imitation_value * 0.5 * (lower**2).mean()
         if self._use_entropy:  # skipped when both coefficients are 0 (Table 5)
             entropies = self._mean_entropies(high_logits, low_out, latent, cfg.ent_cap_high or None)
             loss = loss - (self._ent_coefs[: len(entropies)] * entropies).sum()
