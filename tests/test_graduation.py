@@ -404,9 +404,7 @@ def test_self_imitation_replays_silent_rows_with_their_returns_and_trains_on_the
     critic moves the low level away from the run without it (the test can fail)."""
     params = {}
     for coef in (0.0, 1.0):
-        model = TLAC(
-            "doorkey", teachers=["random"], seed=2, solo_budget=1.0, self_imitation=coef
-        )
+        model = TLAC("doorkey", teachers=["random"], seed=2, solo_budget=1.0, self_imitation=coef)
         model.learn(1200, progress_bar=False)
         params[coef] = torch.cat([p.detach().flatten() for p in model.net.parameters()])
     buf = model.self_imitation_buffer
@@ -416,7 +414,12 @@ def test_self_imitation_replays_silent_rows_with_their_returns_and_trains_on_the
     # step's return is the later one discounted by gamma
     assert torch.allclose(rets[1:100], model.config.gamma * rets[:99])
     assert not torch.equal(params[0.0], params[1.0])
-    assert TLAC("doorkey", teachers=["random"], low_level_data="none", self_imitation=1.0).self_imitation_buffer is None
+    assert (
+        TLAC(
+            "doorkey", teachers=["random"], low_level_data="none", self_imitation=1.0
+        ).self_imitation_buffer
+        is None
+    )
 
 
 def test_solo_greedy_episodes_act_as_the_deployed_student():

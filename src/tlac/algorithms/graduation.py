@@ -310,7 +310,9 @@ class SelfImitationBuffer:
         for e, rows in enumerate(self.pending):
             for t in range(obs.shape[0]):
                 kept = bool(keep[t, e] > 0)
-                rows.append([obs[t, e].clone() if kept else None, int(actions[t, e]), float(rewards[t, e])])
+                rows.append(
+                    [obs[t, e].clone() if kept else None, int(actions[t, e]), float(rewards[t, e])]
+                )
                 if dones[t, e] > 0:
                     self._finish(rows)
                     rows.clear()
@@ -321,7 +323,11 @@ class SelfImitationBuffer:
         for obs, action, reward in reversed(rows):
             ret = reward + self.gamma * ret
             if obs is not None:
-                self.obs[self.next], self.actions[self.next], self.returns[self.next] = obs, action, ret
+                self.obs[self.next], self.actions[self.next], self.returns[self.next] = (
+                    obs,
+                    action,
+                    ret,
+                )
                 self.next = (self.next + 1) % self.capacity
                 self.size = min(self.size + 1, self.capacity)
 
@@ -346,7 +352,9 @@ class SelfImitationBuffer:
     def restore(self, state: dict[str, Any]) -> None:
         size = state["size"]
         self.obs[:size], self.actions[:size], self.returns[:size] = (
-            state["obs"], state["actions"], state["returns"]
+            state["obs"],
+            state["actions"],
+            state["returns"],
         )
         self.next, self.size = state["next"], size
         self.pending = [[list(r) for r in rows] for rows in state["pending"]]
