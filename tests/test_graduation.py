@@ -414,12 +414,12 @@ def test_self_imitation_replays_silent_rows_with_their_returns_and_trains_on_the
     # step's return is the later one discounted by gamma
     assert torch.allclose(rets[1:100], model.config.gamma * rets[:99])
     assert not torch.equal(params[0.0], params[1.0])
-    assert (
-        TLAC(
-            "doorkey", teachers=["random"], low_level_data="none", self_imitation=1.0
-        ).self_imitation_buffer
-        is None
-    )
+    with pytest.raises(ConfigError, match="needs low_level_data 'silent', got 'none'"):
+        TLAC("doorkey", teachers=["random"], low_level_data="none", self_imitation=1.0)
+    with pytest.raises(ConfigError, match="variant 'paper'"):
+        TLAC("doorkey", teachers=["random"], variant="paper", self_imitation=1.0)
+    with pytest.raises(ConfigError, match="needs self_imitation > 0"):
+        TLAC("doorkey", teachers=["random"], self_imitation_value=0.5)
 
 
 def test_solo_greedy_episodes_act_as_the_deployed_student():

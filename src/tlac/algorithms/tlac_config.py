@@ -344,6 +344,15 @@ class TLACConfig:
                 "net_arch_high, net_arch_low and net_arch_critic must have the same, non-zero number "
                 f"of layers (widths may differ), got {self.net_arch_high}, {self.net_arch_low}, {self.net_arch_critic}"
             )
+        if self.self_imitation and self.low_level_data != "silent":
+            raise ConfigError(
+                f"self_imitation acts in the silent states only: it needs low_level_data 'silent', "
+                f"got {self.low_level_data!r} (variant {self.variant!r})"
+            )
+        if self.self_imitation_value and not self.self_imitation:
+            raise ConfigError(
+                "self_imitation_value is SIL's value term: it needs self_imitation > 0"
+            )
 
 
 def domain_preset(name: str) -> dict[str, Any]:

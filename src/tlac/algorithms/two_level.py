@@ -381,17 +381,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             log.imitation.append(imitation.detach())
         sil = self.self_imitation_buffer
         if sil is not None and len(sil) >= cfg.imitation_batch_size:
-            obs, actions, returns = sil.sample(
-                cfg.imitation_batch_size, self._self_imitation_generator
-            )
-            _, low, hidden = self._replay_heads(obs)
-            values = self._replay_values(obs, grad=bool(cfg.self_imitation_value))
-            loss = loss + cfg.self_imitation * losses.self_imitation_loss(
-                self._low_log_prob(low, hidden, actions), returns, values.detach()
-            )
-            if cfg.self_imitation_value:  # SIL's value term: V up towards the best returns
-                lower = (returns - values).clamp(min=0.0)
-                loss = loss + cfg.self_imitation_value * 0.5 * (lower**2).mean()
+            loss = loss + self._self_imitation_term(sil)
         if self._use_entropy:  # skipped when both coefficients are 0 (Table 5)
             entropies = self._mean_entropies(high_logits, low_out, latent, cfg.ent_cap_high or None)
             loss = loss - (self._ent_coefs[: len(entropies)] * entropies).sum()
@@ -420,6 +410,22 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             self.config.imitation_batch_size, self._replay_generator
         )
         return self._imitation_term(*self._replay_heads(obs), advice)
+
+    def _self_imitation_term(self, sil: SelfImitationBuffer) -> torch.Tensor:
+        """Self-imitation on a minibatch replayed from the silent states (its weight included):
+        the filtered imitation of the student's own actions, and SIL's value term
+        ``0.5 max(R - V, 0)^2`` with ``self_imitation_value``."""
+        cfg = self.config
+        obs, actions, returns = sil.sample(cfg.imitation_batch_size, self._self_imitation_generator)
+        _, low, hidden = self._replay_heads(obs)
+        values = self._replay_values(obs, grad=bool(cfg.self_imitation_value))
+        term = cfg.self_imitation * losses.self_imitation_loss(
+            self._low_log_prob(low, hidden, actions), returns, values.detach()
+        )
+        if cfg.self_imitation_value:  # V up towards the best returns seen
+            below = (returns - values).clamp(min=0.0)
+            term = term + cfg.self_imitation_value * 0.5 * (below**2).mean()
+        return term
 
     def _imitation_step(self, distill: float) -> torch.Tensor:
         """One gradient step of the imitation term alone, on replayed states."""
