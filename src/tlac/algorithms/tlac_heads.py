@@ -136,9 +136,7 @@ class TLACHeads:
     def _replay_heads(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """What the imitation term needs on replayed states: (high logits without gradient,
         low output, low-level last hidden layer), computing only those two members."""
-        if self.normalizer is not None:
-            obs = self.normalizer.obs_torch(obs)
-        x = obs if self.encoder is None else self.encoder.torch(obs)
+        x = self._replay_input(obs)
         with torch.no_grad():
             high = self.net.forward_member(x, HIGH)[0][:, : self.n_choices]
         low, hidden = self.net.forward_member(x, LOW)
@@ -146,11 +144,16 @@ class TLACHeads:
 
     def _replay_values(self, obs: torch.Tensor, grad: bool = False) -> torch.Tensor:
         """The critic's values of replayed raw observations (with autograd if ``grad``)."""
-        if self.normalizer is not None:
-            obs = self.normalizer.obs_torch(obs)
-        x = obs if self.encoder is None else self.encoder.torch(obs)
+        x = self._replay_input(obs)
         with torch.set_grad_enabled(grad):
             return self.net.forward_member(x, CRITIC)[0][:, 0]
+
+    def _replay_input(self, obs: torch.Tensor) -> torch.Tensor:
+        """Replayed raw observations -> what the networks see (normalised with the current
+        statistics, then encoded), as :meth:`_net_input` does for acting."""
+        if self.normalizer is not None:
+            obs = self.normalizer.obs_torch(obs)
+        return obs if self.encoder is None else self.encoder.torch(obs)
 
     def _act_heads(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Acting pass: the same four heads as :meth:`_heads`, in NumPy, without autograd."""

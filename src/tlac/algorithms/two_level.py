@@ -147,15 +147,11 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 torch.int64 if len(shape) == 1 else torch.float32,
             )
         self._replay_generator = torch.Generator().manual_seed(self.seed + 1)
-        # self-imitation in the silent states (only rows there are stored: where some teacher
-        # always speaks the buffer stays empty, nothing is drawn, and training is unchanged)
+        # self-imitation in the silent states (low_level_data silent: TLACConfig checks it; only
+        # rows there are stored: where some teacher always speaks the buffer stays empty,
+        # nothing is drawn, and training is unchanged)
         self.self_imitation_buffer: SelfImitationBuffer | None = None
-        if (
-            cfg.self_imitation
-            and cfg.low_level_data == "silent"
-            and self.advice_buffer is not None
-            and self.discrete
-        ):
+        if cfg.self_imitation and self.advice_buffer is not None and self.discrete:
             self.self_imitation_buffer = SelfImitationBuffer(
                 cfg.imitation_buffer_size, self.obs_dim, self.n_envs, cfg.gamma
             )
