@@ -42,6 +42,10 @@ CHECKPOINT_EVERY = 50_000
 """Steps between the checkpoints of a run (TL-AC, DQN-TLQL and AC-Teach save their training
 state in them: exact resume)."""
 LOCK_FILE = ".run.lock"
+BEST_MODEL = "model-best"
+"""keep_best: the model of the best evaluation so far, while the run trains."""
+LAST_MODEL = "model-last"
+"""keep_best: the last weights, where the best evaluation's model became ``model``."""
 RUN_FILES = (
     "episodes.csv",
     MONITOR_FILE,
@@ -53,6 +57,10 @@ RUN_FILES = (
     "checkpoint.zip",
     "model.pt",
     "model.zip",
+    "model-best.pt",
+    "model-best.zip",
+    "model-last.pt",
+    "model-last.zip",
     "config.yaml",
     RESULT_FILE,
 )
@@ -83,6 +91,12 @@ class RunSpec:
     """Episodes per evaluation of the student alone (0 disables evaluation)."""
     log_interval: int = 2000
     """Steps per teacher-usage / progress logging window."""
+    keep_best: bool = False
+    """With ``eval_every``: deploy the student of the best periodic evaluation rather than the
+    last weights, as SB3's ``EvalCallback`` keeps a best model. ``model`` is then that student
+    (the last weights stay in ``model-last``), and ``final_eval_mean`` is its return on
+    ``eval_episodes`` fresh episodes (other seeds than the evaluations that chose it: the best
+    of several noisy evaluations overstates the student). Training itself is unchanged."""
     tensorboard: bool = False
 
     def resolved_teachers(self, domain: Domain) -> list[str]:
@@ -115,6 +129,8 @@ class RunSpec:
             raise ConfigError(f"eval_episodes must be >= 0, got {self.eval_episodes!r}")
         if self.log_interval <= 0:
             raise ConfigError(f"log_interval must be positive, got {self.log_interval!r}")
+        if not isinstance(self.keep_best, bool):
+            raise ConfigError(f"keep_best must be true or false, got {self.keep_best!r}")
         for name in self.resolved_teachers(domain):
             parse_teacher_spec(domain, name)
         return domain
@@ -382,7 +398,11 @@ def _train_locked(
         model = algo_cls(env=venv, teachers=teachers, seed=spec.seed, recorder=recorder, **hp)
         eval_file.write_text("timestep,mean_return,std_return,episodes\n")
 
+    # keep_best: [mean, timestep] of the best evaluation so far; its model is in BEST_MODEL
+    best: list[Any] | None = meta.get("best_eval")
+
     def evaluate(timestep: int) -> None:
+        nonlocal best
         if spec.eval_episodes <= 0:
             return
         returns = evaluate_student(model, domain, spec.eval_episodes, seed=10_000 + spec.seed)
@@ -390,6 +410,9 @@ def _train_locked(
         eval_rows.append(row)
         with eval_file.open("a") as f:
             f.write(",".join(str(v) for v in row) + "\n")
+        if spec.keep_best and (best is None or row[1] >= best[0]):  # ties: the later one
+            model.save(out / BEST_MODEL)
+            best = [row[1], timestep]
         if on_eval is not None:
             train_return = venv.mean_recent_return() if venv.episode_returns else None
             on_eval(timestep, row[1], train_return)
@@ -410,6 +433,7 @@ def _train_locked(
             "next_eval": next_eval,
             "next_checkpoint": next_checkpoint,
             "recorder": recorder.window_state(),
+            "best_eval": best,
         }
         model.save(out / "checkpoint", training_state=True, run_state=run_state)
 
@@ -438,6 +462,7 @@ def _train_locked(
         evaluate(model.num_timesteps)
     for name in (CHECKPOINT, "checkpoint.zip"):
         (out / name).unlink(missing_ok=True)
+    deployed = _deploy_best(spec, out, domain, best, model.num_timesteps)
     result = {
         "finished": True,
         "steps": int(model.num_timesteps),
@@ -452,10 +477,45 @@ def _train_locked(
     kept = getattr(model, "deployed", None)
     if kept is not None:  # keep_best_student: the step whose student predict deploys
         result["student_kept_from_step"] = int(kept.num_timesteps)
+    if deployed is not None:  # keep_best: the deployed model and its fresh evaluation
+        result.update(deployed, last_eval_mean=eval_rows[-1][1], last_eval_std=eval_rows[-1][2])
     venv.close()
     probe_env.close()
     atomic_write_text(out / RESULT_FILE, json.dumps(result, indent=2))
     return result
+
+
+def _deploy_best(
+    spec: RunSpec, out: Path, domain: Domain, best: list[Any] | None, last_step: int
+) -> dict[str, Any] | None:
+    """keep_best: make the best evaluation's model the run's ``model`` (the last weights move to
+    ``model-last``) and measure it on ``eval_episodes`` fresh episodes (seeds ``30_000 + seed``,
+    none of the evaluations' ``10_000 + seed``). Returns the result's fields, or None without
+    keep_best or evaluations."""
+    if not spec.keep_best or best is None:
+        return None
+    best_files = [p for p in out.glob(BEST_MODEL + ".*") if p.suffix in (".pt", ".zip")]
+    if best[1] != last_step:
+        for path in out.glob("model.*"):
+            if path.suffix in (".pt", ".zip"):
+                os.replace(path, path.with_name(LAST_MODEL + path.suffix))
+        for path in best_files:
+            os.replace(path, path.with_name("model" + path.suffix))
+    else:
+        for path in best_files:
+            path.unlink()
+    model = get_algorithm(spec.algo).load(out / "model")
+    returns = evaluate_student(model, domain, spec.eval_episodes, seed=30_000 + spec.seed)
+    fields: dict[str, Any] = {
+        "final_eval_mean": float(returns.mean()),
+        "final_eval_std": float(returns.std()),
+        "deployed_from_step": int(best[1]),
+        "deployed_selection_mean": float(best[0]),
+    }
+    kept = getattr(model, "deployed", None)  # the deployed model's own kept student
+    if kept is not None:
+        fields["student_kept_from_step"] = int(kept.num_timesteps)
+    return fields
 
 
 def load_run_config(run_dir: str | Path) -> dict[str, Any]:

@@ -100,6 +100,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
         eval_episodes=args.eval_episodes,
         log_interval=args.log_interval,
         tensorboard=args.tensorboard,
+        keep_best=args.keep_best,
     )
     domain = spec.validate()
     # domain.name, not spec.env: a domain given as path/to/file.py:ATTR must not become a path
@@ -147,10 +148,20 @@ def _print_result(result: dict[str, Any], eval_episodes: int, out: Path) -> None
     if result["final_eval_mean"] is not None:
         kept = result.get("student_kept_from_step")
         source = "" if kept is None else f"; the student kept from step {kept}"
+        if "deployed_from_step" in result:  # keep_best
+            source = (
+                f"; the model of the best evaluation, step {result['deployed_from_step']} "
+                f"({result['deployed_selection_mean']:.3f} there), on fresh episodes{source}"
+            )
         print(
             f"student alone (no teachers, greedy{source}), {eval_episodes} episodes: "
             f"{result['final_eval_mean']:.3f} +- {result['final_eval_std']:.3f}"
         )
+        if "last_eval_mean" in result:
+            print(
+                f"the last weights' student alone (model-last where not deployed): "
+                f"{result['last_eval_mean']:.3f} +- {result['last_eval_std']:.3f}"
+            )
     print(f"run folder: {out} (episodes.csv, teacher_usage.csv, eval.csv, config.yaml, model)")
 
 
@@ -287,6 +298,12 @@ def build_parser() -> argparse.ArgumentParser:
         type=non_negative_int,
         default=20,
         help="episodes per student-alone evaluation (default 20)",
+    )
+    train.add_argument(
+        "--keep-best",
+        action="store_true",
+        help="with --eval-every: deploy the student of the best evaluation (model; the last "
+        "weights in model-last), scored on fresh episodes",
     )
     train.add_argument(
         "--log-interval", type=positive_int, default=2000, help="steps per logging window"
