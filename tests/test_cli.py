@@ -95,6 +95,7 @@ def test_train_then_eval(tmp_path, capsys):
             "learning_rate must be a finite",
         ),
         (["train", "--algo", "dqn-tlql", "--set", "gamma=.inf"], "gamma must be a finite number"),
+        (["train", "--keep-best"], "keep_best chooses among periodic evaluations"),
     ],
 )
 def test_bad_input_exits_2_with_one_line(args, fragment):
@@ -152,12 +153,15 @@ def test_readme_starts_with_the_two_commands():
     )
 
 
-def test_an_interrupted_run_resumes_exactly(tmp_path):
+@pytest.mark.parametrize("keep_best", [False, True])
+def test_an_interrupted_run_resumes_exactly(tmp_path, keep_best):
     """A TL-AC run stopped after a checkpoint and resumed with `tlac train --resume` ends with
-    the same run files as an uninterrupted run (progress.csv without its wall-clock rows)."""
+    the same run files as an uninterrupted run (progress.csv without its wall-clock rows);
+    with keep_best, the same deployed student (the best evaluation is part of the run state)."""
     from tlac.run import RunSpec, resume_run, train_run
 
     spec = RunSpec(
+        keep_best=keep_best,
         env="doorkey",
         teachers=["optimal", "random"],
         steps=3024,
@@ -191,6 +195,13 @@ def test_an_interrupted_run_resumes_exactly(tmp_path):
 
     assert without_clock(broken / "progress.csv") == without_clock(straight / "progress.csv")
     assert not (broken / "checkpoint.pt").exists() and (broken / "result.json").exists()
+
+    def outcome(folder):
+        result = json.loads((folder / "result.json").read_text())
+        return {k: v for k, v in result.items() if k not in ("wall_time_s", "steps_per_s")}
+
+    assert outcome(broken) == outcome(straight)
+    assert ("deployed_from_step" in outcome(straight)) == keep_best
     with pytest.raises(TlacError, match="finished run"):
         resume_run(broken)
 
@@ -241,3 +252,45 @@ def test_force_starts_afresh_and_a_rerun_continues(tmp_path, monkeypatch):
     monkeypatch.setattr(run_module, "_train_locked", spy)
     assert main(args) == 0
     assert seen == [False, True]
+
+
+def test_keep_best_deploys_the_best_evaluation_and_scores_it_afresh(tmp_path, monkeypatch):
+    """--keep-best: ``model`` is the student of the best periodic evaluation (the latest of
+    equal ones), the last weights move to model-last, and final_eval_mean is the deployed
+    student's return on fresh seeds (30_000 + seed), not the evaluation that chose it.
+    The evaluations' scores are scripted, so that the choice is known."""
+    import numpy as np
+
+    import tlac.run as run_module
+    from tlac import TLAC
+    from tlac.run import RunSpec, train_run
+
+    scripted = iter([0.1, 0.6, 0.2, 0.6, 0.3, 0.5])  # steps 0, 512, 1024, 1536, 2048; fresh
+    seeds: list[int] = []
+
+    def scripted_evaluation(model, domain, episodes, seed, deterministic=True):
+        seeds.append(seed)
+        return np.full(episodes, next(scripted))
+
+    monkeypatch.setattr(run_module, "evaluate_student", scripted_evaluation)
+    spec = RunSpec(
+        teachers=["optimal", "random"],
+        steps=2048,
+        seed=3,
+        eval_every=512,
+        eval_episodes=2,
+        keep_best=True,
+    )
+    out = tmp_path / "run"
+    result = train_run(spec, out)
+    assert seeds == [10_003] * 5 + [30_003]
+    assert result["deployed_from_step"] == 1536 and result["deployed_selection_mean"] == 0.6
+    assert result["final_eval_mean"] == 0.5 and result["last_eval_mean"] == 0.3
+    assert TLAC.load(out / "model").num_timesteps == 1536
+    assert TLAC.load(out / "model-last").num_timesteps == 2048
+    assert not (out / "model-best.pt").exists()
+    # when the last evaluation is the best, the last weights are deployed
+    scripted = iter([0.1, 0.6, 0.2, 0.6, 0.7, 0.5])
+    result = train_run(spec, out)
+    assert result["deployed_from_step"] == 2048 and not (out / "model-last.pt").exists()
+    assert TLAC.load(out / "model").num_timesteps == 2048

@@ -131,6 +131,11 @@ class RunSpec:
             raise ConfigError(f"log_interval must be positive, got {self.log_interval!r}")
         if not isinstance(self.keep_best, bool):
             raise ConfigError(f"keep_best must be true or false, got {self.keep_best!r}")
+        if self.keep_best and (self.eval_every is None or self.eval_episodes == 0):
+            raise ConfigError(
+                "keep_best chooses among periodic evaluations: give eval_every (--eval-every) "
+                "and eval_episodes > 0"
+            )
         for name in self.resolved_teachers(domain):
             parse_teacher_spec(domain, name)
         return domain
