@@ -107,6 +107,8 @@ def base_config(**changes: object) -> dict:
             {"eval": {"every": 100, "episode": 3}},
             ["field 'eval.episode'", "unknown key", "every, episodes"],
         ),
+        ({"eval": {"every": 100, "keep_best": "yes"}}, ["field 'eval.keep_best'", "true or false"]),
+        ({"eval": {"keep_best": True}}, ["field 'eval.keep_best'", "give eval.every"]),
         ({"metrics": {"window": 3}}, ["field 'metrics.window'", "jumpstart_window"]),
         ({"baseline": "tlac"}, ["field 'baseline'", "expected one of: ppo"]),
         ({"algorithms": [{"name": "tlac"}, {"name": "tlac"}]}, ["appears twice", "label"]),

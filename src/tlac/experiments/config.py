@@ -56,7 +56,7 @@ TOP_KEYS = (
     "teacher_sets",
     "algorithms",
 )
-EVAL_KEYS = ("every", "episodes")
+EVAL_KEYS = ("every", "episodes", "keep_best")
 METRIC_KEYS = (
     "jumpstart_window",
     "final_window",
@@ -77,12 +77,21 @@ class EvalSchedule:
     """Evaluate every this many environment steps; ``None``: only at the end of the run."""
     episodes: int = 10
     """Episodes per evaluation (0 disables it)."""
+    keep_best: bool = False
+    """Deploy each run's student of its best evaluation, scored again on fresh episodes
+    (``tlac.run.RunSpec.keep_best``); needs ``every``."""
 
     def __post_init__(self) -> None:
         check = Checks("eval", file=True)
         if self.every is not None:
             check.integer("every", self.every, 1)
         check.integer("episodes", self.episodes, 0)
+        if not isinstance(self.keep_best, bool):
+            raise check.error("keep_best", "true or false", self.keep_best)
+        if self.keep_best and (self.every is None or self.episodes == 0):
+            raise check.error(
+                "keep_best", "eval.every and eval.episodes > 0 with it", self.keep_best
+            )
 
 
 @dataclass(frozen=True)
@@ -270,6 +279,25 @@ class _Fields(Checks):
         return seeds
 
 
+def _eval_schedule(f: _Fields, value: Any) -> EvalSchedule:
+    """The ``eval`` mapping of an experiment file."""
+    ev = f.mapping("eval", value, EVAL_KEYS)
+    every = ev.get("every")
+    keep_best = ev.get("keep_best", False)
+    if not isinstance(keep_best, bool):
+        raise f.problem("eval.keep_best", f"expected true or false, got {keep_best!r}")
+    if keep_best and (every is None or ev.get("episodes", 10) == 0):
+        raise f.problem(
+            "eval.keep_best",
+            "it chooses among periodic evaluations: give eval.every and episodes > 0",
+        )
+    return EvalSchedule(
+        every=None if every is None else f.integer("eval.every", every, 1),
+        episodes=f.integer("eval.episodes", ev.get("episodes", 10), 0),
+        keep_best=keep_best,
+    )
+
+
 def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
     """Validate a loaded YAML mapping and build the :class:`ExperimentConfig`.
 
@@ -299,12 +327,7 @@ def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
     steps = f.integer("steps", top["steps"], 1)
     seeds = f.seeds("seeds", top["seeds"])
 
-    ev = f.mapping("eval", top.get("eval") or {}, EVAL_KEYS)
-    every = ev.get("every")
-    schedule = EvalSchedule(
-        every=None if every is None else f.integer("eval.every", every, 1),
-        episodes=f.integer("eval.episodes", ev.get("episodes", 10), 0),
-    )
+    schedule = _eval_schedule(f, top.get("eval") or {})
     log_interval = f.integer("log_interval", top.get("log_interval", 2000), 1)
     teacher_eval_episodes = f.integer(
         "teacher_eval_episodes", top.get("teacher_eval_episodes", 20), 0

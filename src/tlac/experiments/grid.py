@@ -65,6 +65,7 @@ def expand_grid(config: ExperimentConfig) -> list[GridRun]:
                     overrides=dict(algo.overrides),
                     eval_every=config.eval.every,
                     eval_episodes=config.eval.episodes,
+                    keep_best=config.eval.keep_best,
                     log_interval=config.log_interval,
                 )
                 runs.append(

@@ -89,6 +89,7 @@ SPEC_FIELDS = (
     "eval_every",
     "eval_episodes",
     "log_interval",
+    "keep_best",
 )
 """RunSpec fields that must agree between a finished run's ``config.yaml`` and the grid."""
 
