@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import pytest
+import yaml
 
 from tlac.cli import main
 from tlac.errors import TlacError
@@ -95,7 +96,6 @@ def test_train_then_eval(tmp_path, capsys):
             "learning_rate must be a finite",
         ),
         (["train", "--algo", "dqn-tlql", "--set", "gamma=.inf"], "gamma must be a finite number"),
-        (["train", "--keep-best"], "keep_best chooses among periodic evaluations"),
     ],
 )
 def test_bad_input_exits_2_with_one_line(args, fragment):
@@ -255,9 +255,10 @@ def test_force_starts_afresh_and_a_rerun_continues(tmp_path, monkeypatch):
 
 
 def test_keep_best_deploys_the_best_evaluation_and_scores_it_afresh(tmp_path, monkeypatch):
-    """--keep-best: ``model`` is the student of the best periodic evaluation (the latest of
-    equal ones), the last weights move to model-last, and final_eval_mean is the deployed
-    student's return on fresh seeds (30_000 + seed), not the evaluation that chose it.
+    """keep_best (tlac train's default with --eval-every): ``model`` is the student of the best
+    periodic evaluation (the latest of equal ones), the last weights move to model-last, and
+    final_eval_mean is the deployed student's return on fresh seeds (30_000 + seed), not the
+    evaluation that chose it.
     The evaluations' scores are scripted, so that the choice is known."""
     import numpy as np
 
@@ -294,3 +295,17 @@ def test_keep_best_deploys_the_best_evaluation_and_scores_it_afresh(tmp_path, mo
     result = train_run(spec, out)
     assert result["deployed_from_step"] == 2048 and not (out / "model-last.pt").exists()
     assert TLAC.load(out / "model").num_timesteps == 2048
+
+
+def test_tlac_train_keeps_the_best_with_eval_every_unless_keep_last(tmp_path):
+    base = ["train", "--steps", "64", "--no-progress", "--eval-episodes", "1"]
+    for extra, kept in (
+        ([], False),
+        (["--eval-every", "32"], True),
+        (["--eval-every", "32", "--keep-last"], False),
+    ):
+        out = tmp_path / f"run{len(extra)}"
+        assert main([*base, *extra, "--out", str(out)]) == 0
+        result = json.loads((out / "result.json").read_text())
+        assert ("deployed_from_step" in result) == kept, extra
+        assert yaml.safe_load((out / "config.yaml").read_text())["keep_best"] == kept

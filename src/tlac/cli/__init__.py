@@ -100,7 +100,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
         eval_episodes=args.eval_episodes,
         log_interval=args.log_interval,
         tensorboard=args.tensorboard,
-        keep_best=args.keep_best,
+        keep_best=args.eval_every is not None and not args.keep_last,
     )
     domain = spec.validate()
     # domain.name, not spec.env: a domain given as path/to/file.py:ATTR must not become a path
@@ -157,9 +157,9 @@ def _print_result(result: dict[str, Any], eval_episodes: int, out: Path) -> None
             f"student alone (no teachers, greedy{source}), {eval_episodes} episodes: "
             f"{result['final_eval_mean']:.3f} +- {result['final_eval_std']:.3f}"
         )
-        if "last_eval_mean" in result:
+        if result.get("deployed_from_step", result["steps"]) != result["steps"]:
             print(
-                f"the last weights' student alone (model-last where not deployed): "
+                f"the last weights (model-last), student alone at the last evaluation: "
                 f"{result['last_eval_mean']:.3f} +- {result['last_eval_std']:.3f}"
             )
     print(f"run folder: {out} (episodes.csv, teacher_usage.csv, eval.csv, config.yaml, model)")
@@ -300,10 +300,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="episodes per student-alone evaluation (default 20)",
     )
     train.add_argument(
-        "--keep-best",
+        "--keep-last",
         action="store_true",
-        help="with --eval-every: deploy the student of the best evaluation (model; the last "
-        "weights in model-last), scored on fresh episodes",
+        help="with --eval-every: deploy the last weights (model) rather than the student of "
+        "the best evaluation (the default: model, scored again on fresh episodes; the last "
+        "weights in model-last)",
     )
     train.add_argument(
         "--log-interval", type=positive_int, default=2000, help="steps per logging window"
