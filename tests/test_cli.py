@@ -309,3 +309,40 @@ def test_tlac_train_keeps_the_best_with_eval_every_unless_keep_last(tmp_path):
         result = json.loads((out / "result.json").read_text())
         assert ("deployed_from_step" in result) == kept, extra
         assert yaml.safe_load((out / "config.yaml").read_text())["keep_best"] == kept
+
+
+def test_a_run_stopped_while_deploying_the_best_continues(tmp_path, monkeypatch):
+    """Stopped during the deployed student's fresh evaluation (after the last checkpoint, at
+    the last step), the same command finishes the run with the same deployed model."""
+    import numpy as np
+
+    import tlac.run as run_module
+    from tlac import TLAC
+    from tlac.run import RunSpec, train_run
+
+    scores = {10_003: iter([0.1, 0.6, 0.2, 0.6, 0.3]), 30_003: iter([None, 0.5])}
+
+    def scripted_evaluation(model, domain, episodes, seed, deterministic=True):
+        score = next(scores[seed])
+        if score is None:
+            raise KeyboardInterrupt
+        return np.full(episodes, score)
+
+    monkeypatch.setattr(run_module, "evaluate_student", scripted_evaluation)
+    spec = RunSpec(
+        teachers=["optimal", "random"],
+        steps=2048,
+        seed=3,
+        eval_every=512,
+        eval_episodes=2,
+        keep_best=True,
+    )
+    out = tmp_path / "run"
+    with pytest.raises(KeyboardInterrupt):
+        train_run(spec, out, checkpoint_every=512)
+    assert not (out / "result.json").exists() and (out / "checkpoint.pt").exists()
+    result = train_run(spec, out, checkpoint_every=512, replace=False)
+    assert result["deployed_from_step"] == 1536 and result["final_eval_mean"] == 0.5
+    assert TLAC.load(out / "model").num_timesteps == 1536
+    assert TLAC.load(out / "model-last").num_timesteps == 2048
+    assert not (out / "checkpoint.pt").exists() and not (out / "model-best.pt").exists()

@@ -459,14 +459,13 @@ def _train_locked(
     start = time.time()
     if spec.eval_every and not resume:
         evaluate(0)
-    model.learn(spec.steps - model.num_timesteps, callback=callback, progress_bar=progress_bar)
+    if model.num_timesteps < spec.steps:  # a run stopped after its last checkpoint has none left
+        model.learn(spec.steps - model.num_timesteps, callback=callback, progress_bar=progress_bar)
     wall = time.time() - start
     recorder.close(model.num_timesteps)
-    model.save(out / "model")
+    model.save(out / (LAST_MODEL if spec.keep_best else "model"))
     if not eval_rows or eval_rows[-1][0] != model.num_timesteps:
         evaluate(model.num_timesteps)
-    for name in (CHECKPOINT, "checkpoint.zip"):
-        (out / name).unlink(missing_ok=True)
     deployed = _deploy_best(spec, out, domain, best, model.num_timesteps)
     result = {
         "finished": True,
@@ -487,28 +486,35 @@ def _train_locked(
     venv.close()
     probe_env.close()
     atomic_write_text(out / RESULT_FILE, json.dumps(result, indent=2))
+    # only now: until result.json exists, a rerun continues from the checkpoint
+    for name in (CHECKPOINT, "checkpoint.zip", *_model_files(out, BEST_MODEL)):
+        (out / name).unlink(missing_ok=True)
     return result
+
+
+def _model_files(out: Path, stem: str) -> list[str]:
+    """The names of ``out``'s model files called ``stem`` (.pt: tlac's, .zip: SB3's)."""
+    return [stem + ext for ext in (".pt", ".zip") if (out / (stem + ext)).exists()]
 
 
 def _deploy_best(
     spec: RunSpec, out: Path, domain: Domain, best: list[Any] | None, last_step: int
 ) -> dict[str, Any] | None:
-    """keep_best: make the best evaluation's model the run's ``model`` (the last weights move to
-    ``model-last``) and measure it on ``eval_episodes`` fresh episodes (seeds ``30_000 + seed``,
-    none of the evaluations' ``10_000 + seed``). Returns the result's fields, or None without
-    keep_best or evaluations."""
+    """keep_best: copy the best evaluation's model to the run's ``model`` (the last weights are
+    in ``model-last``, removed when they are the best) and measure it on ``eval_episodes``
+    fresh episodes (seeds ``30_000 + seed``, none of the evaluations' ``10_000 + seed``).
+    Every step can be repeated: a run stopped here continues from its checkpoint and comes
+    back to the same files. Returns the result's fields, or None without keep_best."""
     if not spec.keep_best or best is None:
         return None
-    best_files = [p for p in out.glob(BEST_MODEL + ".*") if p.suffix in (".pt", ".zip")]
-    if best[1] != last_step:
-        for path in out.glob("model.*"):
-            if path.suffix in (".pt", ".zip"):
-                os.replace(path, path.with_name(LAST_MODEL + path.suffix))
-        for path in best_files:
-            os.replace(path, path.with_name("model" + path.suffix))
-    else:
-        for path in best_files:
-            path.unlink()
+    for name in _model_files(out, BEST_MODEL):
+        suffix = Path(name).suffix
+        tmp = out / f"model.tmp{suffix}"
+        shutil.copyfile(out / name, tmp)
+        os.replace(tmp, out / ("model" + suffix))
+    if best[1] == last_step:
+        for name in _model_files(out, LAST_MODEL):
+            (out / name).unlink()
     model = get_algorithm(spec.algo).load(out / "model")
     returns = evaluate_student(model, domain, spec.eval_episodes, seed=30_000 + spec.seed)
     fields: dict[str, Any] = {
