@@ -254,34 +254,50 @@ def test_force_starts_afresh_and_a_rerun_continues(tmp_path, monkeypatch):
     assert seen == [False, True]
 
 
+KEEP_BEST_SPEC = dict(
+    teachers=["optimal", "random"],
+    steps=2048,
+    seed=3,
+    eval_every=512,
+    eval_episodes=2,
+    keep_best=True,
+)
+"""A keep_best run whose evaluations (steps 0, 512, 1024, 1536, 2048, on seed 10_003; the
+deployed student's fresh one on seed 30_003) the tests script."""
+
+
+def _script_evaluations(monkeypatch, scores: dict[int, list]) -> list[int]:
+    """Replace tlac.run's evaluations by ``scores[seed]`` in turn (None: stop the run with
+    KeyboardInterrupt); returns the list of the seeds asked for, in order."""
+    import numpy as np
+
+    import tlac.run as run_module
+
+    left = {seed: iter(values) for seed, values in scores.items()}
+    seeds: list[int] = []
+
+    def scripted_evaluation(model, domain, episodes, seed, deterministic=True):
+        seeds.append(seed)
+        score = next(left[seed])
+        if score is None:
+            raise KeyboardInterrupt
+        return np.full(episodes, score)
+
+    monkeypatch.setattr(run_module, "evaluate_student", scripted_evaluation)
+    return seeds
+
+
 def test_keep_best_deploys_the_best_evaluation_and_scores_it_afresh(tmp_path, monkeypatch):
     """keep_best (tlac train's default with --eval-every): ``model`` is the student of the best
     periodic evaluation (the latest of equal ones), the last weights move to model-last, and
     final_eval_mean is the deployed student's return on fresh seeds (30_000 + seed), not the
     evaluation that chose it.
     The evaluations' scores are scripted, so that the choice is known."""
-    import numpy as np
-
-    import tlac.run as run_module
     from tlac import TLAC
     from tlac.run import RunSpec, train_run
 
-    scripted = iter([0.1, 0.6, 0.2, 0.6, 0.3, 0.5])  # steps 0, 512, 1024, 1536, 2048; fresh
-    seeds: list[int] = []
-
-    def scripted_evaluation(model, domain, episodes, seed, deterministic=True):
-        seeds.append(seed)
-        return np.full(episodes, next(scripted))
-
-    monkeypatch.setattr(run_module, "evaluate_student", scripted_evaluation)
-    spec = RunSpec(
-        teachers=["optimal", "random"],
-        steps=2048,
-        seed=3,
-        eval_every=512,
-        eval_episodes=2,
-        keep_best=True,
-    )
+    seeds = _script_evaluations(monkeypatch, {10_003: [0.1, 0.6, 0.2, 0.6, 0.3], 30_003: [0.5]})
+    spec = RunSpec(**KEEP_BEST_SPEC)
     out = tmp_path / "run"
     result = train_run(spec, out)
     assert seeds == [10_003] * 5 + [30_003]
@@ -291,7 +307,7 @@ def test_keep_best_deploys_the_best_evaluation_and_scores_it_afresh(tmp_path, mo
     assert TLAC.load(out / "model-last").num_timesteps == 2048
     assert not (out / "model-best.pt").exists()
     # when the last evaluation is the best, the last weights are deployed
-    scripted = iter([0.1, 0.6, 0.2, 0.6, 0.7, 0.5])
+    _script_evaluations(monkeypatch, {10_003: [0.1, 0.6, 0.2, 0.6, 0.7], 30_003: [0.5]})
     result = train_run(spec, out)
     assert result["deployed_from_step"] == 2048 and not (out / "model-last.pt").exists()
     assert TLAC.load(out / "model").num_timesteps == 2048
@@ -314,29 +330,11 @@ def test_tlac_train_keeps_the_best_with_eval_every_unless_keep_last(tmp_path):
 def test_a_run_stopped_while_deploying_the_best_continues(tmp_path, monkeypatch):
     """Stopped during the deployed student's fresh evaluation (after the last checkpoint, at
     the last step), the same command finishes the run with the same deployed model."""
-    import numpy as np
-
-    import tlac.run as run_module
     from tlac import TLAC
     from tlac.run import RunSpec, train_run
 
-    scores = {10_003: iter([0.1, 0.6, 0.2, 0.6, 0.3]), 30_003: iter([None, 0.5])}
-
-    def scripted_evaluation(model, domain, episodes, seed, deterministic=True):
-        score = next(scores[seed])
-        if score is None:
-            raise KeyboardInterrupt
-        return np.full(episodes, score)
-
-    monkeypatch.setattr(run_module, "evaluate_student", scripted_evaluation)
-    spec = RunSpec(
-        teachers=["optimal", "random"],
-        steps=2048,
-        seed=3,
-        eval_every=512,
-        eval_episodes=2,
-        keep_best=True,
-    )
+    _script_evaluations(monkeypatch, {10_003: [0.1, 0.6, 0.2, 0.6, 0.3], 30_003: [None, 0.5]})
+    spec = RunSpec(**KEEP_BEST_SPEC)
     out = tmp_path / "run"
     with pytest.raises(KeyboardInterrupt):
         train_run(spec, out, checkpoint_every=512)
