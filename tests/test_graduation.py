@@ -35,11 +35,13 @@ from tlac.run import RunSpec, train_run
 # (what an implementation on SB3's PPO computes; docs/reproduction.md). The rule it used before,
 # agent rows only, is pinned with its digests from before the graduate variant existed: the
 # commit that flipped the default changed nothing else.
+# Each entry holds one digest per machine type the project has run on (docs/architecture.md,
+# "Golden hashes across machines"): a change of behaviour gives bytes that match neither.
 PAPER_GOLDEN = {
-    (("optimal", "random", "random"), "all"): "0a35bfcdd9dfe4cf",
-    (("noisy", "noisy", "noisy"), "all"): "b43ddf3bf06686ca",
-    (("optimal", "random", "random"), "agent"): "6b019105ffece0b1",
-    (("noisy", "noisy", "noisy"), "agent"): "120f9356582ed944",
+    (("optimal", "random", "random"), "all"): ("0a35bfcdd9dfe4cf", "3c8aad06a06823d2"),
+    (("noisy", "noisy", "noisy"), "all"): ("b43ddf3bf06686ca", "93fffca39772ad92"),
+    (("optimal", "random", "random"), "agent"): ("6b019105ffece0b1", "005a74e0edcb41fd"),
+    (("noisy", "noisy", "noisy"), "agent"): ("120f9356582ed944", "e0650656500ef312"),
 }
 
 
@@ -58,7 +60,7 @@ def test_paper_variant_is_pinned(tmp_path, teachers, kl_rows):
     )
     train_run(spec, tmp_path)
     digest = hashlib.sha256((tmp_path / "episodes.csv").read_bytes()).hexdigest()[:16]
-    assert digest == PAPER_GOLDEN[(teachers, kl_rows)]
+    assert digest in PAPER_GOLDEN[(teachers, kl_rows)]
 
 
 def test_variant_defaults_and_explicit_settings():

@@ -26,15 +26,17 @@ from tlac.teachers.wrappers import RandomTeacher
 # algorithms compute, and says why, may update them. AC-Teach's was updated when its dropout
 # masks moved from torch's Bernoulli draws to the model's NumPy generator (the same masks in
 # distribution, ~5x faster; tlac.algorithms.ac_teach.dropout_mask): different draws.
+# One digest per machine type the project has run on (docs/architecture.md, "Golden hashes
+# across machines"): a change of behaviour gives bytes that match neither.
 GOLDEN = {
-    "dqn-tlql": (["optimal", "random", "random"], 6000, "53a45410632f0964"),
-    "ac-teach": (["optimal", "random"], 1500, "41f39fe26629e95a"),
+    "dqn-tlql": (["optimal", "random", "random"], 6000, ("53a45410632f0964", "1c1464320388c1fc")),
+    "ac-teach": (["optimal", "random"], 1500, ("41f39fe26629e95a", "28b276d2aa1d9e21")),
 }
 
 
 @pytest.mark.parametrize("algo", list(GOLDEN))
 def test_off_policy_baselines_are_pinned(tmp_path: Path, algo: str) -> None:
-    teachers, steps, digest = GOLDEN[algo]
+    teachers, steps, digests = GOLDEN[algo]
     spec = RunSpec(
         env="doorkey",
         algo=algo,
@@ -47,7 +49,7 @@ def test_off_policy_baselines_are_pinned(tmp_path: Path, algo: str) -> None:
     )
     train_run(spec, tmp_path / "run", checkpoint_every=None)
     episodes = (tmp_path / "run" / "episodes.csv").read_bytes()
-    assert hashlib.sha256(episodes).hexdigest()[:16] == digest
+    assert hashlib.sha256(episodes).hexdigest()[:16] in digests
 
 
 def test_replay_buffer_wraps_and_its_state_round_trips() -> None:
