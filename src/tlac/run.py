@@ -14,10 +14,12 @@ import contextlib
 import dataclasses
 import json
 import os
+import platform
 import shutil
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
+from importlib import metadata
 from pathlib import Path
 from typing import Any
 
@@ -249,6 +251,27 @@ def _resumable(out: Path, spec: RunSpec, domain: Domain) -> dict[str, Any] | Non
     return _checkpoint_run_state(out)
 
 
+PLATFORM_PACKAGES = ("torch", "numpy", "gymnasium", "minigrid", "stable-baselines3")
+
+
+def platform_record() -> dict[str, str]:
+    """The machine and package versions a run was made with, for result.json: runs on two
+    machine types can differ in their bytes (docs/architecture.md, "Golden hashes across
+    machines"), so each run says where it was made."""
+    record = {"python": platform.python_version(), "machine": platform.machine()}
+    with contextlib.suppress(OSError):  # not Linux: no /proc/cpuinfo, the CPU stays unnamed
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                record["cpu"] = line.split(":", 1)[1].strip()
+                break
+    for package in PLATFORM_PACKAGES:
+        try:
+            record[package] = metadata.version(package)
+        except metadata.PackageNotFoundError:
+            record[package] = "not installed"
+    return record
+
+
 def train_run(
     spec: RunSpec,
     out_dir: str | Path,
@@ -477,6 +500,7 @@ def _train_locked(
         "final_train_return_mean": None if not venv.episode_returns else venv.mean_recent_return(),
         "final_eval_mean": eval_rows[-1][1] if eval_rows else None,
         "final_eval_std": eval_rows[-1][2] if eval_rows else None,
+        "platform": platform_record(),
     }
     kept = getattr(model, "deployed", None)
     if kept is not None:  # keep_best_student: the step whose student predict deploys
