@@ -158,6 +158,8 @@ def test_an_interrupted_run_resumes_exactly(tmp_path, keep_best):
     """A TL-AC run stopped after a checkpoint and resumed with `tlac train --resume` ends with
     the same run files as an uninterrupted run (progress.csv without its wall-clock rows);
     with keep_best, the same deployed student (the best evaluation is part of the run state)."""
+    import torch
+
     from tlac.run import RunSpec, resume_run, train_run
 
     spec = RunSpec(
@@ -202,8 +204,6 @@ def test_an_interrupted_run_resumes_exactly(tmp_path, keep_best):
 
     assert outcome(broken) == outcome(straight)
     assert ("deployed_from_step" in outcome(straight)) == keep_best
-    import torch
-
     platform = outcome(straight)["platform"]  # where the run was made (docs/architecture.md)
     assert platform["torch"] == torch.__version__ and set(platform) >= {"python", "machine", "numpy"}
     with pytest.raises(TlacError, match="finished run"):

@@ -261,8 +261,12 @@ def platform_record() -> dict[str, str]:
     record = {"python": platform.python_version(), "machine": platform.machine()}
     with contextlib.suppress(OSError):  # not Linux: no /proc/cpuinfo, the CPU stays unnamed
         for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                record["cpu"] = line.split(":", 1)[1].strip()
+            key, _, value = (part.strip() for part in line.partition(":"))
+            if key == "model name":
+                record["cpu"] = value
+            elif key == "flags":  # a model name can be generic ("Intel(R) Xeon(R) Processor")
+                record["avx512"] = "yes" if "avx512f" in value.split() else "no"
+            if "cpu" in record and "avx512" in record:
                 break
     for package in PLATFORM_PACKAGES:
         try:
