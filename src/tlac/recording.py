@@ -6,15 +6,19 @@
 * :class:`Recorder` accumulates the high level's selections per region and writes
   ``teacher_usage.csv`` once per logging window, and training scalars to ``progress.csv``
   (long format ``timestep,key,value``) and optionally TensorBoard.
+* :func:`platform_record` says where a run was made (result.json's ``platform``).
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
+import platform
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
+from importlib import metadata
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +29,39 @@ MONITOR_FILE = "monitor.csv"
 """Written beside episodes.csv in stable-baselines3's Monitor format (a JSON header line, then
 ``r,l,t``: return, length, seconds since the start), so that SB3 / rl-zoo tools
 (``stable_baselines3.common.monitor.load_results``) read a run folder."""
+
+
+PLATFORM_PACKAGES = ("torch", "numpy", "gymnasium", "minigrid", "stable-baselines3")
+
+
+def installed_versions(packages: Iterable[str]) -> dict[str, str]:
+    """Name -> installed version of each of ``packages`` that is installed, in their order."""
+    versions = {}
+    for package in packages:
+        with contextlib.suppress(metadata.PackageNotFoundError):
+            versions[package] = metadata.version(package)
+    return versions
+
+
+def platform_record() -> dict[str, str]:
+    """The machine and package versions a run was made with, for result.json: runs on two
+    machine types can differ in their bytes (docs/architecture.md, "Golden hashes across
+    machines"), so each run says where it was made."""
+    record = {"python": platform.python_version(), "machine": platform.machine()}
+    with contextlib.suppress(OSError):  # not Linux: no /proc/cpuinfo, the CPU stays unnamed
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            key, _, value = (part.strip() for part in line.partition(":"))
+            if key == "model name":
+                record["cpu"] = value
+            elif key == "flags":  # a model name can be generic ("Intel(R) Xeon(R) Processor")
+                record["avx512"] = "yes" if "avx512f" in value.split() else "no"
+            if "cpu" in record and "avx512" in record:
+                break
+    versions = installed_versions(PLATFORM_PACKAGES)
+    record.update(
+        {package: versions.get(package, "not installed") for package in PLATFORM_PACKAGES}
+    )
+    return record
 
 
 def next_log_step(timestep: int, interval: int) -> int:

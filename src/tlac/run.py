@@ -14,12 +14,10 @@ import contextlib
 import dataclasses
 import json
 import os
-import platform
 import shutil
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from importlib import metadata
 from pathlib import Path
 from typing import Any
 
@@ -34,7 +32,7 @@ from tlac.domains import Domain, get_domain, make_teachers, make_vec_env, parse_
 from tlac.errors import ConfigError, UnknownNameError, read_yaml_file
 from tlac.evaluation import evaluate_student
 from tlac.presets import load_preset
-from tlac.recording import MONITOR_FILE, Recorder
+from tlac.recording import MONITOR_FILE, Recorder, platform_record
 from tlac.selectors import SELECTOR_NAMES
 
 SELECTORS = SELECTOR_NAMES  # the high levels a run may use (tlac.selectors)
@@ -249,31 +247,6 @@ def _resumable(out: Path, spec: RunSpec, domain: Domain) -> dict[str, Any] | Non
     if (out / RESULT_FILE).exists() or not _same_settings(out, spec, domain):
         return None
     return _checkpoint_run_state(out)
-
-
-PLATFORM_PACKAGES = ("torch", "numpy", "gymnasium", "minigrid", "stable-baselines3")
-
-
-def platform_record() -> dict[str, str]:
-    """The machine and package versions a run was made with, for result.json: runs on two
-    machine types can differ in their bytes (docs/architecture.md, "Golden hashes across
-    machines"), so each run says where it was made."""
-    record = {"python": platform.python_version(), "machine": platform.machine()}
-    with contextlib.suppress(OSError):  # not Linux: no /proc/cpuinfo, the CPU stays unnamed
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            key, _, value = (part.strip() for part in line.partition(":"))
-            if key == "model name":
-                record["cpu"] = value
-            elif key == "flags":  # a model name can be generic ("Intel(R) Xeon(R) Processor")
-                record["avx512"] = "yes" if "avx512f" in value.split() else "no"
-            if "cpu" in record and "avx512" in record:
-                break
-    for package in PLATFORM_PACKAGES:
-        try:
-            record[package] = metadata.version(package)
-        except metadata.PackageNotFoundError:
-            record[package] = "not installed"
-    return record
 
 
 def train_run(

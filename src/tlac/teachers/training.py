@@ -18,13 +18,13 @@ import json
 import os
 import platform
 import time
-from importlib import metadata as importlib_metadata
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from tlac.errors import ConfigError
+from tlac.recording import installed_versions
 
 SAC_HYPERPARAMS: dict[str, dict[str, Any]] = {
     # rl-baselines3-zoo's SAC settings for HopperBulletEnv-v0 (gSDE), but [128, 128] instead
@@ -91,20 +91,15 @@ TRAINABLE = (*SAC_HYPERPARAMS, *PPO_HYPERPARAMS)
 
 
 def _versions() -> dict[str, str]:
-    out = {"python": platform.python_version()}
-    for pkg in (
+    packages = (
         "stable-baselines3",
         "torch",
         "gymnasium",
         "pybullet",
         "pybullet-envs-gymnasium",
         "mujoco",
-    ):
-        try:
-            out[pkg] = importlib_metadata.version(pkg)
-        except importlib_metadata.PackageNotFoundError:  # pragma: no cover
-            pass
-    return out
+    )
+    return {"python": platform.python_version(), **installed_versions(packages)}
 
 
 def _atomic_write_text(path: Path, text: str) -> None:
