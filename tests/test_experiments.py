@@ -531,3 +531,22 @@ def test_only_runs_the_matching_runs_and_refuses_a_pattern_matching_none(tmp_pat
     status = dict((r.name, s) for r, s in grid_status(config, out))
     assert status["doorkey__none__ppo__seed0"] == "finished"
     assert sum(s == "finished" for s in status.values()) == 1  # the others were not run
+
+
+def test_the_papers_doorkey_teachers_stand_beside_ours_under_both_names():
+    """The paper's optimal / good / noisy DoorKey teachers (appendix A.1.1) are shown beside the
+    PPO teachers the study configs use and beside the scripted ones; partial teachers have no
+    stated return in the paper."""
+    from tlac.experiments.report import load_paper_results
+    from tlac.experiments.tables import teachers_table
+
+    paper = load_paper_results()["teachers"]["doorkey"]
+    ours = {name: {"mean": 0.5} for name in ("ppo", "optimal", "ppo-good", "ppo-noisy", "ppo-L")}
+    shown = teachers_table(ours, paper).set_index("teacher")["paper"]
+    assert shown["ppo"] == shown["optimal"] == {
+        "mean": 0.77,
+        "std": 0.38,
+        "note": "PPO agent, 1e6 steps, 1000 episodes",
+    }
+    assert (shown["ppo-good"]["mean"], shown["ppo-noisy"]["mean"]) == (0.83, 0.30)
+    assert shown["ppo-L"] is None
