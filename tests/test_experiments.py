@@ -23,8 +23,9 @@ import yaml
 from tlac.errors import ConfigError
 from tlac.experiments.config import load_config, parse_config
 from tlac.experiments.grid import expand_grid, run_status
-from tlac.experiments.report import fmt, write_report
+from tlac.experiments.report import fmt, load_paper_results, write_report
 from tlac.experiments.runner import run_local, run_ray
+from tlac.experiments.tables import teachers_table
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY = ROOT / "configs" / "tiny-doorkey.yaml"
@@ -537,9 +538,6 @@ def test_the_papers_doorkey_teachers_stand_beside_ours_under_both_names():
     """The paper's optimal / good / noisy DoorKey teachers (appendix A.1.1) are shown beside the
     PPO teachers the study configs use and beside the scripted ones; partial teachers have no
     stated return in the paper."""
-    from tlac.experiments.report import load_paper_results
-    from tlac.experiments.tables import teachers_table
-
     paper = load_paper_results()["teachers"]["doorkey"]
     ours = {name: {"mean": 0.5} for name in ("ppo", "optimal", "ppo-good", "ppo-noisy", "ppo-L")}
     shown = teachers_table(ours, paper).set_index("teacher")["paper"]
