@@ -37,7 +37,7 @@ from tlac.run import RunSpec, train_run
 # commit that flipped the default changed nothing else.
 # Each entry holds one digest per machine type the project has run on (docs/architecture.md,
 # "Golden hashes across machines"): a change of behaviour gives bytes that match none. The third
-# is an AMD EPYC with AVX-512 (2026-11-25), where the off-policy digests match the first two.
+# is an AMD EPYC with AVX-512 (2026-11-25), where the off-policy digests match one of the first two.
 PAPER_GOLDEN = {
     (("optimal", "random", "random"), "all"): ("0a35bfcdd9dfe4cf", "3c8aad06a06823d2", "fac82244b95e8d86"),
     (("noisy", "noisy", "noisy"), "all"): ("b43ddf3bf06686ca", "93fffca39772ad92", "7e95da3bd4bb6aef"),
