@@ -39,10 +39,26 @@ from tlac.run import RunSpec, train_run
 # "Golden hashes across machines"): a change of behaviour gives bytes that match none. The third
 # is an AMD EPYC with AVX-512 (2026-11-25), where the off-policy digests match one of the first two.
 PAPER_GOLDEN = {
-    (("optimal", "random", "random"), "all"): ("0a35bfcdd9dfe4cf", "3c8aad06a06823d2", "fac82244b95e8d86"),
-    (("noisy", "noisy", "noisy"), "all"): ("b43ddf3bf06686ca", "93fffca39772ad92", "7e95da3bd4bb6aef"),
-    (("optimal", "random", "random"), "agent"): ("6b019105ffece0b1", "005a74e0edcb41fd", "3af305e7f7241cdf"),
-    (("noisy", "noisy", "noisy"), "agent"): ("120f9356582ed944", "e0650656500ef312", "b47df1d2f8b21593"),
+    (("optimal", "random", "random"), "all"): (
+        "0a35bfcdd9dfe4cf",
+        "3c8aad06a06823d2",
+        "fac82244b95e8d86",
+    ),
+    (("noisy", "noisy", "noisy"), "all"): (
+        "b43ddf3bf06686ca",
+        "93fffca39772ad92",
+        "7e95da3bd4bb6aef",
+    ),
+    (("optimal", "random", "random"), "agent"): (
+        "6b019105ffece0b1",
+        "005a74e0edcb41fd",
+        "3af305e7f7241cdf",
+    ),
+    (("noisy", "noisy", "noisy"), "agent"): (
+        "120f9356582ed944",
+        "e0650656500ef312",
+        "b47df1d2f8b21593",
+    ),
 }
 
 
