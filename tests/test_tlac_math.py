@@ -207,3 +207,49 @@ def test_selectors_share_one_protocol_and_registry() -> None:
     rand = make_selector("random", 3, 1, 0, np.random.default_rng(0), 1.0)
     assert set(rand.evaluation_choices(np.zeros((200, 3)), deterministic=True)) == {0, 1, 2}
     assert [s.trains_high_level for s in (learned, rand, ucb)] == [True, False, False]
+
+
+@pytest.mark.parametrize("env", ["doorkey", "hopper"])
+def test_per_level_step_clips_each_network_alone_and_leaves_a_stopped_level_untouched(env):
+    """update_rule per_level (the paper variant's): each member's gradient is clipped to
+    max_grad_norm on its own (as torch's clip_grad_norm_ over that member's parameters alone),
+    and a stopped level keeps its weights and optimiser statistics exactly."""
+    from tlac import TLAC
+    from tlac.algorithms.nets import CRITIC, HIGH, LOW
+
+    model = TLAC(env, teachers=["optimal", "random"], seed=1, variant="paper")
+    assert model.config.update_rule == "per_level"
+    model.learn(2 * model.config.n_steps * model.n_envs, progress_bar=False)  # optimiser state
+    ro = model.collect()
+    data = ro.flat()
+    idx = torch.arange(min(16, data["obs"].shape[0]))
+    from tlac.algorithms.tlac_update import UpdateLog, row_weights
+
+    rows = row_weights(model.config, data, model.n_teachers, True, False, False)
+
+    def loss():
+        return model._minibatch_loss(data, idx, rows, 0.2, None, UpdateLog())[0]
+
+    def member(m):  # every tensor of member m: weights and optimiser statistics
+        out = []
+        for p in model.net.parameters():
+            out += [p.data[m].clone()] + [v[m].clone() for v in model._moments(p)]
+        if m == LOW and model.log_std is not None:
+            out += [model.log_std.data.clone()] + [v.clone() for v in model._moments(model.log_std)]
+        return out
+
+    # each member's gradient, clipped alone, by hand
+    model.optimizer.zero_grad()
+    loss().backward()
+    raw = {m: torch.sqrt(sum(p.grad[m].pow(2).sum() for p in model.net.parameters())) for m in (HIGH, LOW, CRITIC)}
+    if model.log_std is not None:
+        raw[LOW] = torch.sqrt(raw[LOW] ** 2 + model.log_std.grad.pow(2).sum())
+    before = {m: member(m) for m in (HIGH, LOW, CRITIC)}
+    model._gradient_step_per_level(loss(), torch.tensor([False, True]))  # the low level stopped
+    after = {m: member(m) for m in (HIGH, LOW, CRITIC)}
+    assert all(torch.equal(a, b) for a, b in zip(before[LOW], after[LOW], strict=True))
+    for m in (HIGH, CRITIC):
+        assert not all(torch.equal(a, b) for a, b in zip(before[m], after[m], strict=True))
+        clipped = torch.sqrt(sum(p.grad[m].pow(2).sum() for p in model.net.parameters()))
+        expected = min(float(raw[m]), model.config.max_grad_norm)
+        assert clipped.item() == pytest.approx(expected, rel=1e-4)

@@ -193,3 +193,33 @@ def categorical_log_probs(logits: torch.Tensor) -> torch.Tensor:
 
 def categorical_entropy(log_probs: torch.Tensor) -> torch.Tensor:
     return -(log_probs.exp() * log_probs).sum(-1)
+
+
+def member_grad_norms(
+    stacked: list[torch.Tensor], members: int, extra: dict[int, list[torch.Tensor]]
+) -> torch.Tensor:
+    """The L2 norm of each member's gradient, ``(members,)``: the gradients of a stack's
+    parameters (each of shape ``(members, ...)``, member ``m`` at index ``m``) plus, per member,
+    the gradients of its own separate parameters (``extra``, e.g. the low level's log std).
+
+    >>> w = torch.tensor([[3.0, 0.0], [0.0, 1.0]])
+    >>> member_grad_norms([w], 2, {1: [torch.tensor([0.0, 0.0, 1.0])]}).tolist()
+    [3.0, 1.4142135381698608]
+    """
+    squares = torch.zeros(members)
+    for grad in stacked:
+        squares += grad.pow(2).reshape(members, -1).sum(1)
+    for m, grads in extra.items():
+        for grad in grads:
+            squares[m] += grad.pow(2).sum()
+    return squares.sqrt()
+
+
+def clip_coefficients(norms: torch.Tensor, max_norm: float) -> torch.Tensor:
+    """What ``torch.nn.utils.clip_grad_norm_`` multiplies a gradient by, per norm:
+    ``min(1, max_norm / (norm + 1e-6))``.
+
+    >>> clip_coefficients(torch.tensor([0.25, 2.0]), 0.5).tolist()
+    [1.0, 0.24999988079071045]
+    """
+    return (max_norm / (norms + 1e-6)).clamp(max=1.0)

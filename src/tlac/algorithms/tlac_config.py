@@ -37,6 +37,7 @@ VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
         # collapse the high level onto one teacher (docs/graduation.md)
         "ent_coef_high": 0.03,
         "ent_cap_high": 0.5,
+        "update_rule": "joint",
     },
     "paper": {
         "distill_coef": 0.0,
@@ -49,6 +50,10 @@ VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
         "kl_rows": "all",
         "obs_encoding": "raw",
         "ent_cap_high": 0.0,  # no cap (ent_coef_high stays the preset's, ent_coef)
+        # each level as its own SB3 policy: its own gradient clip and target-KL stop (the
+        # paper's tables give each level's settings apart); "joint" was the rule until
+        # 2026-11-26 (docs/reproduction.md, "One update per level")
+        "update_rule": "per_level",
     },
 }
 """What each TL-AC variant sets when the corresponding setting is left at None."""
@@ -71,7 +76,9 @@ class TLACConfig:
     clip_range: Schedule = 0.2
     """PPO clip range of both levels' ratios; number or {linear: [start, end]}."""
     target_kl: Schedule | None = 0.02
-    """Stop the epochs when the larger of the two levels' approximate KL exceeds 1.5x this."""
+    """Stop before a gradient step once a level's approximate KL exceeds 1.5x this (SB3's
+    rule): with update_rule joint, the larger of the two levels' KL stops the whole update;
+    with per_level, each level stops on its own KL."""
     ent_coef: float = 0.0
     """Entropy bonus of both levels, unless ent_coef_high / ent_coef_low are given."""
     ent_coef_high: float | None = None
@@ -86,7 +93,16 @@ class TLACConfig:
     vf_coef: float = 0.5
     """Weight of the critic's loss in the update."""
     max_grad_norm: float = 0.5
-    """Gradient-norm clipping of the shared update."""
+    """Gradient-norm clipping: of all three networks' gradient together (update_rule joint),
+    or of each network's own (per_level)."""
+    update_rule: str | None = None
+    """How one minibatch's gradient step treats the three networks. joint: one loss, one
+    global gradient-norm clip, and one target-KL stop (the larger level KL) for everything.
+    per_level: as two SB3 policies sharing a critic would run: each network's gradient is
+    clipped to max_grad_norm on its own, a level whose KL exceeds 1.5x target_kl takes no
+    more steps in this update (its weights and optimiser statistics stay as they were), and
+    the critic steps while either level still does. None: the variant's (graduate joint,
+    paper per_level; docs/reproduction.md, "One update per level")."""
     gamma: float = 0.99
     """Discount."""
     gae_lambda: float = 0.85
@@ -329,6 +345,7 @@ class TLACConfig:
             check.number(name, getattr(self, name), 0.0, open_low=True)
         for name, accepted in (
             ("optimizer", ["rmsprop_tf", "adam"]),
+            ("update_rule", ["joint", "per_level"]),
             ("kl_rows", ["agent", "all", "high"]),
             ("obs_encoding", list(ENCODINGS)),
             ("trust", list(losses.TRUST_RULES)),
@@ -348,6 +365,11 @@ class TLACConfig:
             raise ConfigError(
                 f"self_imitation acts in the silent states only: it needs low_level_data 'silent', "
                 f"got {self.low_level_data!r} (variant {self.variant!r})"
+            )
+        if self.update_rule == "per_level" and self.imitate_after_stop:
+            raise ConfigError(
+                "imitate_after_stop acts when the whole update stops: it needs update_rule "
+                f"'joint', got 'per_level' (variant {self.variant!r})"
             )
         if self.self_imitation_value and not self.self_imitation:
             raise ConfigError(

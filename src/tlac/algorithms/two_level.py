@@ -41,7 +41,13 @@ from tlac.algorithms.graduation import (
     SoloEpisodes,
     StudentSnapshot,
 )
-from tlac.algorithms.nets import LOW, np_log_softmax
+from tlac.algorithms.nets import (
+    HIGH,
+    LOW,
+    clip_coefficients,
+    member_grad_norms,
+    np_log_softmax,
+)
 from tlac.algorithms.rollout import Rollout, compute_gae
 from tlac.algorithms.tlac_config import VARIANT_DEFAULTS, TLACConfig, resolve_settings  # noqa: F401  (VARIANT_DEFAULTS: re-exported)
 from tlac.algorithms.tlac_heads import TLACHeads, make_optimizer
@@ -290,6 +296,8 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 keep.view(ro.dones.shape),
             )
         log, imitation_only = UpdateLog(), False
+        per_level = cfg.update_rule == "per_level"
+        running = torch.ones(rows.old_log_probs.shape[0], dtype=torch.bool)  # [low, high]
         for _epoch in range(cfg.n_epochs):
             self._n_updates += 1  # epochs begun, as SB3's train/n_updates counts them
             perm = torch.randperm(n, generator=self.generator)
@@ -298,17 +306,30 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                     log.imitation.append(self._imitation_step(distill))
                     continue
                 idx = perm[start : start + cfg.batch_size]
-                loss, kl, heads = self._minibatch_loss(
+                loss, kls, heads = self._minibatch_loss(
                     data, idx, rows, clip, distill if imitates else None, log
                 )
-                if target_kl is not None and kl > 1.5 * target_kl:
-                    log.stopped_early = True  # SB3's rule: stop before a step that moves too far
+                # SB3's rule: stop before a step that moves too far (per level, or all at once)
+                too_far = (
+                    kls > 1.5 * target_kl
+                    if target_kl is not None
+                    else torch.zeros_like(running)
+                )
+                if per_level:
+                    running &= ~too_far
+                    log.stopped_early = log.stopped_early or bool(too_far.any())
+                    if not running.any():
+                        break
+                    self._gradient_step_per_level(loss, running)
+                    continue
+                if bool(too_far.any()):
+                    log.stopped_early = True
                     if cfg.imitate_after_stop and imitates:
                         imitation_only = True
                         continue
                     break
                 self._gradient_step(loss)
-            if log.stopped_early and not imitation_only:
+            if (not running.any()) if per_level else (log.stopped_early and not imitation_only):
                 break
         out = summarize_update(log, rows.old_log_probs.shape[0])
         out["train/explained_variance"] = losses.explained_variance(data["values"], data["returns"])
@@ -329,6 +350,9 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 "train/stopped_early": float(log.stopped_early),
             }
         )
+        if per_level:  # which levels the KL stop ended before the last epoch's end
+            for lv, run in zip(["low", "high"], running.tolist(), strict=False):
+                out[f"train/stopped_{lv}"] = float(not run)
         return out
 
     def _minibatch_loss(
@@ -339,9 +363,10 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         clip: float,
         distill: float | None,
         log: UpdateLog,
-    ) -> tuple[torch.Tensor, float, tuple[torch.Tensor, torch.Tensor, torch.Tensor]]:
+    ) -> tuple[torch.Tensor, torch.Tensor, tuple[torch.Tensor, torch.Tensor, torch.Tensor]]:
         """One minibatch's loss (both levels' clipped surrogates, the critic's error, and the
-        graduate variant's terms), its largest approximate KL, and the heads it used."""
+        graduate variant's terms), each level's approximate KL ``[low, high]``, and the heads
+        it used."""
         cfg = self.config
         adv = level_advantages(
             data["advantages"][idx],
@@ -383,7 +408,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             loss = loss - (self._ent_coefs[: len(entropies)] * entropies).sum()
         log.losses_and_kls.append(torch.cat([policy_losses.detach(), vf_loss.detach()[None], kls]))
         log.clip_fractions.append(losses.clip_fractions(log_probs, old, clip, weights))
-        return loss, float(kls.max()), (high_logits, low_out, latent)
+        return loss, kls.detach(), (high_logits, low_out, latent)
 
     def _gradient_step(self, loss: torch.Tensor) -> None:
         self.optimizer.zero_grad(set_to_none=True)
@@ -391,6 +416,50 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         norm = nn.utils.clip_grad_norm_(self.params, self.config.max_grad_norm, foreach=True)
         stop_if_not_finite(norm, "TL-AC", self.num_timesteps, "gradient norm")
         self.optimizer.step()
+
+    def _gradient_step_per_level(self, loss: torch.Tensor, running: torch.Tensor) -> None:
+        """update_rule per_level: each network's gradient clipped to max_grad_norm on its own,
+        then one optimiser step that leaves a stopped level's weights and optimiser statistics
+        as they were (``running``: ``[low, high]``; the critic steps while either runs). The
+        optimiser is element-wise, so this is the step of separate optimisers per network
+        (Adam's step count aside, which its state shares over the stack)."""
+        self.optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        stacked = [p for p in self.net.parameters() if p.grad is not None]
+        own = {LOW: [self.log_std.grad]} if self.log_std is not None else {}
+        own = {m: [g for g in grads if g is not None] for m, grads in own.items()}
+        norms = member_grad_norms([p.grad for p in stacked], self.net.members, own)
+        stop_if_not_finite(norms, "TL-AC", self.num_timesteps, "gradient norm")
+        coefs = clip_coefficients(norms, self.config.max_grad_norm)
+        stopped = [m for m, run in zip((LOW, HIGH), running.tolist(), strict=False) if not run]
+        coefs[stopped] = 0.0  # no gradient reaches a stopped level's optimiser statistics
+        for p in stacked:
+            p.grad.mul_(coefs.view(-1, *[1] * (p.grad.dim() - 1)))
+        for m, grads in own.items():
+            for g in grads:
+                g.mul_(coefs[m])
+        kept = self._member_state(stopped)
+        self.optimizer.step()
+        for live, saved in kept:
+            live.copy_(saved)
+
+    @torch.no_grad()
+    def _member_state(self, members: list[int]) -> list[tuple[torch.Tensor, torch.Tensor]]:
+        """(live tensor, copy) pairs of the given members' weights and optimiser statistics, to
+        put back after a step: a slice of each stacked tensor, the whole log std for LOW."""
+        pairs: list[tuple[torch.Tensor, torch.Tensor]] = []
+        for m in members:
+            for p in self.net.parameters():
+                pairs += [(t[m], t[m].clone()) for t in [p.data, *self._moments(p)]]
+            if m == LOW and self.log_std is not None:
+                p = self.log_std
+                pairs += [(t, t.clone()) for t in [p.data, *self._moments(p)]]
+        return pairs
+
+    def _moments(self, p: torch.Tensor) -> list[torch.Tensor]:
+        """The optimiser's per-element statistics of ``p`` (square averages, momenta)."""
+        state = self.optimizer.state[p].values()
+        return [v for v in state if isinstance(v, torch.Tensor) and v.shape == p.shape]
 
     def _deploy_if_worth(self, worth: bool) -> None:
         """keep_best_student: make the live student the one ``predict`` deploys when its recent
