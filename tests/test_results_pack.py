@@ -23,10 +23,12 @@ from tlac.cli import main
 from tlac.errors import ConfigError
 from tlac.experiments.archive import ARCHIVE_FILE, KEPT_FILES, RunStore, read_archive
 from tlac.experiments.config import load_config
-from tlac.experiments.grid import expand_grid
+from tlac.experiments.grid import ERROR_FILE, expand_grid
 from tlac.experiments.packing import pack_study
 from tlac.experiments.report import write_report
+from tlac.experiments.rundata import EPISODES_FILE, EVAL_FILE, USAGE_FILE
 from tlac.experiments.runner import run_local
+from tlac.run import RESULT_FILE
 
 UNREAD = ("monitor.csv", "progress.csv", "model.pt", "model.zip", "checkpoint.pt")
 """Files of a run folder that no report reads: packing leaves them out."""
@@ -100,6 +102,8 @@ def test_the_archive_is_deterministic_and_holds_only_what_reports_read(tmp_path:
     assert names == sorted(names) and names[0] == "runs"
     files = {Path(n).name for n in names if n.count("/") == 2}
     assert files == set(KEPT_FILES)  # error.txt from the failed run
+    read = {EPISODES_FILE, EVAL_FILE, USAGE_FILE, RESULT_FILE, ERROR_FILE, "config.yaml"}
+    assert read == set(KEPT_FILES)  # what rundata and the runner's settings check read
     assert not files & set(UNREAD)
     assert {(m.mtime, m.uid, m.gid, m.uname, m.gname) for m in members} == {(0, 0, 0, "", "")}
     assert {m.mode for m in members if m.isfile()} == {0o644}
