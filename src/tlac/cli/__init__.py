@@ -7,6 +7,7 @@
     tlac teacher train|eval ...     # SAC teachers; measure any teacher
     tlac experiment run CONFIG --out DIR [--workers N] [--backend ray]
     tlac report DIR
+    tlac results pack DIR           # DIR/runs/ -> DIR/runs.tar.xz (what the reports read)
 
 Bad input exits with status 2 and one line on stderr naming what was wrong.
 """
@@ -364,6 +365,9 @@ def build_parser() -> argparse.ArgumentParser:
     from tlac.cli import experiment as experiment_cli
 
     experiment_cli.register(sub)
+    from tlac.cli import results as results_cli
+
+    results_cli.register(sub)
     return parser
 
 

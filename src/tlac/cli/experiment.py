@@ -116,8 +116,8 @@ def register(subparsers: Any) -> None:
     rep = subparsers.add_parser(
         "report",
         help="write a Markdown report and PNG figures for an experiment folder",
-        description="Reads DIR/experiment.yaml and DIR/runs/*, writes DIR/report.md, "
-        "DIR/figures/*.png and DIR/summary.csv.",
+        description="Reads DIR/experiment.yaml and DIR/runs/* (or DIR/runs.tar.xz, written by "
+        "'tlac results pack'), writes DIR/report.md, DIR/figures/*.png and DIR/summary.csv.",
     )
     rep.add_argument("dir", metavar="DIR", help="output folder of 'tlac experiment run'")
     rep.add_argument(

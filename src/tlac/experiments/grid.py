@@ -88,12 +88,25 @@ def run_status(folder: Path) -> str:
     """``finished`` (``result.json`` present and readable), ``failed`` (``error.txt``), ``partial``
     (a folder without either: interrupted) or ``missing``."""
     result = folder / RESULT_FILE
+    text = None
     if result.exists():
         try:
-            json.loads(result.read_text())
+            text = result.read_bytes()
+        except OSError:
+            text = b""  # present but unreadable: not finished
+    return status_of(text, (folder / ERROR_FILE).exists(), folder.exists())
+
+
+def status_of(result: bytes | None, has_error: bool, present: bool) -> str:
+    """A run's status from what its folder holds: the bytes of its ``result.json`` (``None``
+    when absent), whether it has an ``error.txt`` and whether the run exists at all; the one
+    rule behind :func:`run_status` and the runs packed in ``runs.tar.xz``."""
+    if result is not None:
+        try:
+            json.loads(result)
             return "finished"
-        except (OSError, ValueError):
+        except ValueError:
             return "partial"
-    if (folder / ERROR_FILE).exists():
+    if has_error:
         return "failed"
-    return "partial" if folder.exists() else "missing"
+    return "partial" if present else "missing"

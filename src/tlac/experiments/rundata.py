@@ -1,11 +1,14 @@
 """Reading an experiment folder back: its config, every run of its grid and the teachers' own
 returns, as one :class:`Experiment`. This is the only reading the report does; the tables
 (:mod:`tlac.experiments.tables`) and figures (:mod:`tlac.experiments.figures`) work on the
-object it returns and touch no file.
+object it returns and touch no file. Runs are read through a
+:class:`~tlac.experiments.archive.RunStore`: from their folders, or from ``DIR/runs.tar.xz``
+once the study is packed (the same bytes, so the same report).
 """
 
 from __future__ import annotations
 
+import io
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,8 +17,9 @@ from typing import Any
 import pandas as pd
 
 from tlac.errors import ConfigError, read_yaml_file
+from tlac.experiments.archive import RunStore
 from tlac.experiments.config import NO_TEACHERS, ExperimentConfig, parse_config
-from tlac.experiments.grid import ERROR_FILE, GridRun, expand_grid, run_dir, run_status
+from tlac.experiments.grid import ERROR_FILE, GridRun, expand_grid
 from tlac.experiments.runner import EXPERIMENT_FILE, TEACHERS_FILE
 from tlac.run import RESULT_FILE
 
@@ -83,22 +87,26 @@ class Experiment:
         return self.finished(NO_TEACHERS, base) if base else []
 
 
-def _read_csv(path: Path, columns: list[str], required: bool = False) -> pd.DataFrame:
-    """The CSV at ``path`` (an empty frame when absent or unreadable); with ``required`` (a
-    finished run's files) an unreadable or malformed file is a ConfigError naming it."""
-    df = _try_read_csv(path, columns)
+def _read_csv(
+    data: bytes | None, where: str, columns: list[str], required: bool = False
+) -> pd.DataFrame:
+    """The CSV ``data`` (an empty frame when absent or unreadable); with ``required`` (a
+    finished run's files) an unreadable or malformed file is a ConfigError naming ``where``."""
+    df = _try_read_csv(data, columns)
     if required and df is None:
         raise ConfigError(
-            f"{str(path)!r} is damaged (expected a CSV with columns {', '.join(columns)}); "
+            f"{where!r} is damaged (expected a CSV with columns {', '.join(columns)}); "
             "delete its run folder and rerun the grid to redo it"
         )
     return pd.DataFrame(columns=columns) if df is None else df
 
 
-def _try_read_csv(path: Path, columns: list[str]) -> pd.DataFrame | None:
+def _try_read_csv(data: bytes | None, columns: list[str]) -> pd.DataFrame | None:
+    if data is None:
+        return None
     try:
-        df = pd.read_csv(path)
-    except (OSError, UnicodeDecodeError, pd.errors.EmptyDataError, pd.errors.ParserError):
+        df = pd.read_csv(io.BytesIO(data))
+    except (UnicodeDecodeError, pd.errors.EmptyDataError, pd.errors.ParserError):
         return None
     missing = [c for c in columns if c not in df.columns]
     if missing:
@@ -110,34 +118,45 @@ def _try_read_csv(path: Path, columns: list[str]) -> pd.DataFrame | None:
     return df
 
 
-def read_run(folder: Path, run: GridRun) -> RunData:
-    """One run folder: its status, its CSVs (empty frames where absent), its ``result.json``
-    when finished and the last line of its ``error.txt`` when failed."""
-    status = run_status(folder)
-    result = json.loads((folder / RESULT_FILE).read_text()) if status == "finished" else None
+def read_run(store: RunStore, run: GridRun) -> RunData:
+    """One run (its folder, or its copy in the archive): its status, its CSVs (empty frames
+    where absent), its ``result.json`` when finished and the last line of its ``error.txt``
+    when failed."""
+    name = run.name
+    status = store.status(name)
+    result = None
+    if status == "finished":
+        result = json.loads(store.read(name, RESULT_FILE) or b"")
     error = None
     if status == "failed":
-        lines = (folder / ERROR_FILE).read_text().strip().splitlines()
+        text = (store.read(name, ERROR_FILE) or b"").decode(errors="replace")
+        lines = text.strip().splitlines()
         error = lines[-1] if lines else "unknown error"
+
+    def csv(file: str, columns: list[str], required: bool = False) -> pd.DataFrame:
+        return _read_csv(store.read(name, file), store.where(name, file), columns, required)
+
     return RunData(
         run=run,
         status=status,
-        episodes=_read_csv(folder / EPISODES_FILE, EPISODES_COLUMNS, required=status == "finished"),
-        evals=_read_csv(folder / EVAL_FILE, EVAL_COLUMNS),
-        usage=_read_csv(folder / USAGE_FILE, USAGE_COLUMNS),
+        episodes=csv(EPISODES_FILE, EPISODES_COLUMNS, required=status == "finished"),
+        evals=csv(EVAL_FILE, EVAL_COLUMNS),
+        usage=csv(USAGE_FILE, USAGE_COLUMNS),
         result=result,
         error=error,
     )
 
 
 def read_experiment(out_dir: str | Path) -> Experiment:
-    """Read the experiment folder ``out_dir``; a ConfigError when it is not one."""
+    """Read the experiment folder ``out_dir`` (its runs from their folders or from
+    ``runs.tar.xz``); a ConfigError when it is not one."""
     out = Path(out_dir)
     cfg_path = out / EXPERIMENT_FILE
     if not cfg_path.exists():
         raise ConfigError(f"{out}: not an experiment folder ({EXPERIMENT_FILE} is missing)")
     config = parse_config(read_yaml_file(cfg_path, "experiment file"), str(cfg_path))
-    runs = [read_run(run_dir(out, r), r) for r in expand_grid(config)]
+    store = RunStore(out)
+    runs = [read_run(store, r) for r in expand_grid(config)]
     teachers_path = out / TEACHERS_FILE
     teachers = json.loads(teachers_path.read_text()) if teachers_path.exists() else {}
     return Experiment(config, runs, teachers)

@@ -7,7 +7,9 @@ Both runners share one contract:
 * A run is finished once its ``result.json`` exists: ``tlac.run.train_run`` writes it last and
   atomically. Rerunning the same command skips finished runs and redoes every other one from
   scratch (an interrupted folder is cleared first), so a grid is resumable and loss-free.
-  Finished run folders are never opened for writing again.
+  Finished run folders are never opened for writing again. Runs packed into
+  ``DIR/runs.tar.xz`` (``tlac results pack``) count as they are there: finished ones are
+  skipped, the others are redone into a new folder, which then wins over the archive's copy.
 * A run that raises writes ``error.txt`` (the traceback) into its folder, is reported, and does
   not stop the others; it is redone on the next invocation.
 
@@ -42,8 +44,9 @@ from typing import Any
 import yaml
 
 from tlac.errors import ConfigError
+from tlac.experiments.archive import RunStore
 from tlac.experiments.config import ExperimentConfig
-from tlac.experiments.grid import ERROR_FILE, RUNS_DIR, GridRun, expand_grid, run_dir, run_status
+from tlac.experiments.grid import ERROR_FILE, RUNS_DIR, GridRun, expand_grid, run_dir
 from tlac.run import RESULT_FILE, RunSpec, atomic_write_text, folder_lock
 
 EXPERIMENT_FILE = "experiment.yaml"
@@ -94,12 +97,15 @@ SPEC_FIELDS = (
 """RunSpec fields that must agree between a finished run's ``config.yaml`` and the grid."""
 
 
-def spec_mismatch(spec: RunSpec, folder: Path) -> str | None:
-    """How a finished run's ``config.yaml`` differs from ``spec`` (``"steps=1000 (now 2000)"``),
-    or ``None`` when it was made with the same settings (or has no readable config)."""
+def spec_mismatch(spec: RunSpec, config_yaml: bytes | None) -> str | None:
+    """How a finished run's ``config.yaml`` (its bytes) differs from ``spec``
+    (``"steps=1000 (now 2000)"``), or ``None`` when it was made with the same settings (or
+    has no readable config)."""
+    if config_yaml is None:
+        return None
     try:
-        done = yaml.safe_load((folder / "config.yaml").read_text()) or {}
-    except (OSError, yaml.YAMLError):
+        done = yaml.safe_load(config_yaml) or {}
+    except yaml.YAMLError:
         return None
     wanted = {k: getattr(spec, k) for k in SPEC_FIELDS}
     wanted["teacher_kinds"] = list(spec.teachers or [])
@@ -111,24 +117,27 @@ def spec_mismatch(spec: RunSpec, folder: Path) -> str | None:
     return None
 
 
-def prepare_out_dir(config: ExperimentConfig, out_dir: str | Path) -> Path:
+def prepare_out_dir(
+    config: ExperimentConfig, out_dir: str | Path, store: RunStore | None = None
+) -> Path:
     """Create ``DIR`` and write the experiment to ``DIR/experiment.yaml``.
 
     A folder can be reused by a changed experiment file (more seeds, another teacher set...) as
     long as every run that is already finished there was made with the settings the new grid
     asks of it; otherwise this raises :class:`ConfigError` naming the run and the setting, so
-    that results of two different grids never mix."""
+    that results of two different grids never mix. ``store`` reads the runs (default: a new
+    :class:`RunStore` of ``out_dir``, which also sees the runs packed in ``runs.tar.xz``)."""
     out = Path(out_dir)
     (out / RUNS_DIR).mkdir(parents=True, exist_ok=True)
+    store = store or RunStore(out)
     for r in expand_grid(config):
-        folder = run_dir(out, r)
-        if run_status(folder) != "finished":
+        if store.status(r.name) != "finished":
             continue
-        why = spec_mismatch(r.spec, folder)
+        why = spec_mismatch(r.spec, store.read(r.name, "config.yaml"))
         if why is not None:
             raise ConfigError(
-                f"{folder}: finished with {why} asked by {config.source}; use another --out, "
-                f"or delete that run folder to redo it"
+                f"{store.where(r.name)}: finished with {why} asked by {config.source}; use "
+                f"another --out, or delete that run folder to redo it"
             )
     atomic_write_text(out / EXPERIMENT_FILE, yaml.safe_dump(config.raw, sort_keys=False))
     return out
@@ -157,9 +166,10 @@ def _grid_session(
     except OSError as exc:
         raise ConfigError(f"cannot create the grid folder {str(out)!r}: {exc.strerror}") from None
     with dir_lock(out):
-        prepare_out_dir(config, out)
+        store = RunStore(out)
+        prepare_out_dir(config, out, store)
         evaluate_teachers(config, out)
-        todo, skipped = _plan(config, out, only)
+        todo, skipped = _plan(config, store, only)
         yield todo, GridSummary(total=len(todo) + skipped, skipped=skipped)
 
 
@@ -472,10 +482,10 @@ def select_runs(runs: list[GridRun], only: str | None) -> list[GridRun]:
 
 
 def _plan(
-    config: ExperimentConfig, out: Path, only: str | None = None
+    config: ExperimentConfig, store: RunStore, only: str | None = None
 ) -> tuple[list[GridRun], int]:
     runs = select_runs(expand_grid(config), only)
-    todo = [r for r in runs if run_status(run_dir(out, r)) != "finished"]
+    todo = [r for r in runs if store.status(r.name) != "finished"]
     return todo, len(runs) - len(todo)
 
 
@@ -665,5 +675,6 @@ def grid_status(
     config: ExperimentConfig, out_dir: str | Path, only: str | None = None
 ) -> list[tuple[GridRun, str]]:
     """Each run of the grid (matching ``only``) with its status (``finished``/``failed``/
-    ``partial``/``missing``)."""
-    return [(r, run_status(run_dir(out_dir, r))) for r in select_runs(expand_grid(config), only)]
+    ``partial``/``missing``), from its folder or from ``runs.tar.xz``."""
+    store = RunStore(out_dir)
+    return [(r, store.status(r.name)) for r in select_runs(expand_grid(config), only)]
