@@ -210,6 +210,57 @@ def _teachers_cartpole(seed: int, space: gym.Space) -> list:
     return [cartpole_pd, random_teacher(space, seed)]
 
 
+WEAK_TEACHERS_DIR = Path(__file__).resolve().parent.parent / "results" / "weak-teachers"
+"""Where the weak suite's pretrained agents are (SB3 zips, with teachers.json)."""
+
+WEAK_TEACHERS: dict[str, dict[str, Any]] = {
+    "CartPole-v1": {"algo": "ppo", "steps": 16384, "seed": 0},
+    "Acrobot-v1": {"algo": "ppo", "steps": 30720, "seed": 0},
+    "LunarLander-v3": {"algo": "ppo", "steps": 40960, "seed": 0},
+    "Pendulum-v1": {"algo": "sac", "steps": 3000, "seed": 0},
+}
+"""The weak suite's teachers: an SB3 agent (its defaults, ``MlpPolicy``) trained briefly with a
+fixed seed, so that it scores roughly a third to two thirds of the way from a random policy to
+what SB3 PPO (SAC for Pendulum) reaches alone in 1e5 steps. ``--train-weak-teachers`` makes
+them again (results/weak-teachers/teachers.json records their scores and versions)."""
+
+
+def load_weak_teacher(env_id: str) -> Any:
+    """The pretrained agent of the weak suite for ``env_id``, as SB3 saved it."""
+    from stable_baselines3 import PPO, SAC
+
+    algo = {"ppo": PPO, "sac": SAC}[WEAK_TEACHERS[env_id]["algo"]]
+    return algo.load(WEAK_TEACHERS_DIR / f"{env_id}.zip", device="cpu")
+
+
+def train_weak_teacher(env_id: str) -> Path:
+    """Train the weak suite's agent for ``env_id`` as WEAK_TEACHERS says, save it, and return
+    the path of its zip."""
+    import torch
+    from stable_baselines3 import PPO, SAC
+
+    torch.set_num_threads(1)
+    spec = WEAK_TEACHERS[env_id]
+    algo = {"ppo": PPO, "sac": SAC}[spec["algo"]]
+    model = algo("MlpPolicy", gym.make(env_id), seed=spec["seed"], device="cpu")
+    model.learn(spec["steps"])
+    WEAK_TEACHERS_DIR.mkdir(parents=True, exist_ok=True)
+    path = WEAK_TEACHERS_DIR / f"{env_id}.zip"
+    model.save(path)
+    return path
+
+
+def _weak_teachers(env_id: str) -> TeacherFactory:
+    def factory(seed: int, space: gym.Space) -> list:
+        return [load_weak_teacher(env_id), random_teacher(space, seed)]
+
+    return factory
+
+
+WEAK_SUITE: dict[str, TeacherFactory] = {f"{e}+weak": _weak_teachers(e) for e in WEAK_TEACHERS}
+"""The weak-teacher suite: each environment's briefly trained SB3 agent, passed as it is, plus
+a random teacher (the student must learn past them: issue 41)."""
+
 SUITE: dict[str, TeacherFactory] = {
     "MountainCar-v0": _teachers_mountain_car,
     "Acrobot-v1": _teachers_acrobot,
@@ -220,6 +271,7 @@ SUITE: dict[str, TeacherFactory] = {
 """Suite entry -> its teachers (a user's plain functions from one observation to one action,
 or objects with a batched ``predict``), built for a seed and the environment's action space.
 An entry is a Gymnasium id, with ``+variant`` where the same environment has another teacher set."""
+SUITE.update(WEAK_SUITE)
 
 
 def gym_id(entry: str) -> str:
@@ -345,6 +397,31 @@ def report(out: Path, envs: list[str]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def write_weak_teachers() -> None:
+    """Train every weak teacher, then record its return (greedy, EVAL_EPISODES fresh episodes,
+    as the students are scored), its recipe and the versions in teachers.json."""
+    import stable_baselines3
+    import torch
+
+    record: dict[str, Any] = {
+        "versions": {
+            "stable_baselines3": stable_baselines3.__version__,
+            "torch": torch.__version__,
+            "gymnasium": gym.__version__,
+        },
+        "teachers": {},
+    }
+    for env_id, spec in WEAK_TEACHERS.items():
+        train_weak_teacher(env_id)
+        model = load_weak_teacher(env_id)
+        score = evaluate(
+            lambda b, m=model: m.predict(b, deterministic=True)[0], env_id, EVAL_EPISODES
+        )
+        record["teachers"][env_id] = {**spec, "return": round(float(score.mean()), 2)}
+        print(f"{env_id}: {spec} -> {score.mean():.1f}", flush=True)
+    (WEAK_TEACHERS_DIR / "teachers.json").write_text(json.dumps(record, indent=1) + "\n")
+
+
 def parse_settings(pairs: list[str]) -> dict[str, Any]:
     """``key=value`` pairs (values parsed as JSON where they can be) -> TL-AC settings."""
     settings: dict[str, Any] = {}
@@ -364,10 +441,21 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=100_000)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
     parser.add_argument(
+        "--suite",
+        choices=["scripted", "weak"],
+        default="scripted",
+        help="scripted: a user's controllers (the default); weak: briefly trained SB3 agents",
+    )
+    parser.add_argument(
         "--envs",
         nargs="+",
-        default=[e for e in SUITE if "+" not in e],  # variants of an environment: opt-in
+        default=None,  # the suite's entries (variants of an environment: opt-in)
         choices=list(SUITE),
+    )
+    parser.add_argument(
+        "--train-weak-teachers",
+        action="store_true",
+        help="train the weak suite's agents again (WEAK_TEACHERS), measure them, and stop",
     )
     parser.add_argument("--learners", nargs="+", default=["tlac", "ppo"], choices=["tlac", "ppo"])
     parser.add_argument("--episodes", type=int, default=EVAL_EPISODES)
@@ -381,6 +469,16 @@ def main() -> None:
     )
     parser.add_argument("--out", type=Path, default=Path("results/user-envs"))
     args = parser.parse_args()
+    if args.train_weak_teachers:
+        write_weak_teachers()
+        return
+    if args.envs is None:
+        weak = args.suite == "weak"
+        args.envs = (
+            [e for e in SUITE if e.endswith("+weak")]
+            if weak
+            else [e for e in SUITE if "+" not in e]
+        )
     settings = parse_settings(args.tlac_setting)
     (args.out / "runs").mkdir(parents=True, exist_ok=True)
     (args.out / "reference").mkdir(parents=True, exist_ok=True)
