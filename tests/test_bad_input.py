@@ -177,6 +177,10 @@ CLI_CASES: list[tuple[list[str], str]] = [
     (["train", "--steps", "1e-3"], "got '1e-3'"),
     # --seed
     ([*T, "--seed", "-1"], "expected a non-negative integer, got '-1'"),
+    ([*T, "--seed", "4294967296"], "seed must be an integer from 0 to 2147483647"),
+    ([*T, "--algo", "dqn-tlql", "--selector", "ucb1"], "--selector ucb1 replaces TL-AC's"),
+    ([*T, "--set", "preset=hopper"], "the preset is chosen with --preset"),
+    ([*T, "--algo", "ac-teach", "--set", "gamma=1.5"], "gamma"),
     ([*T, "--seed", "1.5"], "got '1.5'"),
     ([*T, "--seed", "abc"], "got 'abc'"),
     ([*T, "--seed", "nan"], "got 'nan'"),
@@ -462,3 +466,10 @@ def test_api_load_of_a_broken_file_is_one_error(broken, made):
 
 def test_the_suite_is_as_large_as_promised():
     assert len(CLI_CASES) + len(API_CASES) + 5 >= 150
+
+
+def test_teachers_given_as_one_string_are_refused():
+    from tlac import TLAC
+
+    with pytest.raises(TlacError, match=r"did you mean \['optimal'\]"):
+        TLAC("doorkey", teachers="optimal")

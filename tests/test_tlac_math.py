@@ -241,7 +241,10 @@ def test_per_level_step_clips_each_network_alone_and_leaves_a_stopped_level_unto
     # each member's gradient, clipped alone, by hand
     model.optimizer.zero_grad()
     loss().backward()
-    raw = {m: torch.sqrt(sum(p.grad[m].pow(2).sum() for p in model.net.parameters())) for m in (HIGH, LOW, CRITIC)}
+    raw = {
+        m: torch.sqrt(sum(p.grad[m].pow(2).sum() for p in model.net.parameters()))
+        for m in (HIGH, LOW, CRITIC)
+    }
     if model.log_std is not None:
         raw[LOW] = torch.sqrt(raw[LOW] ** 2 + model.log_std.grad.pow(2).sum())
     before = {m: member(m) for m in (HIGH, LOW, CRITIC)}

@@ -121,6 +121,11 @@ class RunSpec:
         check_seed(self.seed)
         if self.selector not in SELECTORS:
             raise UnknownNameError("selector", self.selector, SELECTORS)
+        if self.selector != "learned" and self.algo != "tlac":
+            raise ConfigError(
+                f"--selector {self.selector} replaces TL-AC's high level; {self.algo} has none "
+                "(use it with --algo tlac)"
+            )
         if self.eval_every is not None and self.eval_every <= 0:
             raise ConfigError(
                 f"eval_every must be a positive number of steps, got {self.eval_every!r}"
@@ -155,6 +160,11 @@ def check_in_process(hp: dict[str, Any]) -> None:
 def hyperparameters(spec: RunSpec) -> dict[str, Any]:
     """The preset's settings for ``spec.algo`` with ``spec.overrides`` applied."""
     hp = load_preset(spec.resolved_preset(), spec.algo)
+    if "preset" in spec.overrides:
+        raise ConfigError(
+            "the preset is chosen with --preset (or an algorithm's 'preset' in an experiment "
+            "file), not with --set preset=..."
+        )
     if "selector" in spec.overrides:
         raise ConfigError(
             "the high level is chosen with --selector (or an algorithm's 'selector' in an "

@@ -342,6 +342,7 @@ class ACTeachConfig:
         check.one_of("switch_sign", self.switch_sign, SWITCH_SIGNS)
         for name in ("dropout_keep_prob", "tau", "commitment_decay"):
             check.number(name, getattr(self, name), 0.0, 1.0, open_low=True)
+        check.number("gamma", self.gamma, 0.0, 1.0)
         for name in ("actor_lr", "critic_lr", "alpha", "dropout_tau", "dataset_size"):
             check.number(name, getattr(self, name), 0.0, open_low=True)
         if self.obs_clip is not None:

@@ -276,11 +276,20 @@ def stop_if_not_finite(value: torch.Tensor, algo: str, step: int, what: str = "l
 
 
 def check_seed(seed: Any) -> int:
-    """A seed is a non-negative integer (NumPy and PyTorch both accept it); else ConfigError.
+    """A seed is an integer from 0 to MAX_SEED; else ConfigError.
 
     >>> check_seed(3)
     3
     """
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
-        raise ConfigError(f"seed must be a non-negative integer, got {seed!r}")
+    if (
+        isinstance(seed, bool)
+        or not isinstance(seed, int | np.integer)
+        or not 0 <= seed <= MAX_SEED
+    ):
+        raise ConfigError(f"seed must be an integer from 0 to {MAX_SEED}, got {seed!r}")
     return int(seed)
+
+
+MAX_SEED = 2**31 - 1
+"""The largest seed: the environments and generators are seeded with the seed plus small
+offsets, and NumPy's legacy seeding (Gymnasium's spaces) takes at most 2**32 - 1."""

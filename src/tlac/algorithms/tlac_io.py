@@ -71,6 +71,10 @@ def as_teachers(
 ) -> list[Teacher]:
     """What a user passes as ``teachers``: a domain's teacher names (``env`` a domain name), or
     objects / SB3 models / plain functions, named for the logs (unique names)."""
+    if isinstance(teachers, str):
+        raise ConfigError(
+            f"teachers must be a list, got the string {teachers!r}; did you mean [{teachers!r}]?"
+        )
     if teachers and all(isinstance(t, str) for t in teachers):
         if domain is None:
             raise ConfigError(

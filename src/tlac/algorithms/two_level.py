@@ -311,9 +311,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 )
                 # SB3's rule: stop before a step that moves too far (per level, or all at once)
                 too_far = (
-                    kls > 1.5 * target_kl
-                    if target_kl is not None
-                    else torch.zeros_like(running)
+                    kls > 1.5 * target_kl if target_kl is not None else torch.zeros_like(running)
                 )
                 if per_level:
                     running &= ~too_far
