@@ -216,8 +216,8 @@ WEAK_TEACHERS_DIR = Path(__file__).resolve().parent.parent / "results" / "weak-t
 WEAK_TEACHERS: dict[str, dict[str, Any]] = {
     "CartPole-v1": {"algo": "ppo", "steps": 16384, "seed": 0},
     "Acrobot-v1": {"algo": "ppo", "steps": 30720, "seed": 0},
-    "LunarLander-v3": {"algo": "ppo", "steps": 40960, "seed": 0},
-    "Pendulum-v1": {"algo": "sac", "steps": 3000, "seed": 0},
+    "LunarLander-v3": {"algo": "ppo", "steps": 81920, "seed": 0},
+    "Pendulum-v1": {"algo": "sac", "steps": 3300, "seed": 0},
 }
 """The weak suite's teachers: an SB3 agent (its defaults, ``MlpPolicy``) trained briefly with a
 fixed seed, so that it scores roughly a third to two thirds of the way from a random policy to
@@ -397,9 +397,10 @@ def report(out: Path, envs: list[str]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_weak_teachers() -> None:
-    """Train every weak teacher, then record its return (greedy, EVAL_EPISODES fresh episodes,
-    as the students are scored), its recipe and the versions in teachers.json."""
+def write_weak_teachers(train: bool = True) -> None:
+    """Train every weak teacher (``train``; else measure the saved ones), then record its
+    return (greedy, EVAL_EPISODES fresh episodes, as the students are scored), its recipe and
+    the versions in teachers.json."""
     import stable_baselines3
     import torch
 
@@ -412,7 +413,8 @@ def write_weak_teachers() -> None:
         "teachers": {},
     }
     for env_id, spec in WEAK_TEACHERS.items():
-        train_weak_teacher(env_id)
+        if train:
+            train_weak_teacher(env_id)
         model = load_weak_teacher(env_id)
         score = evaluate(
             lambda b, m=model: m.predict(b, deterministic=True)[0], env_id, EVAL_EPISODES

@@ -367,6 +367,18 @@ def test_failed_runs_are_reported_and_others_continue(
     assert run_status(tmp_path / "out" / "runs" / "doorkey__none__ppo__seed0") == "failed"
 
 
+def fake_finished_run(config, out: Path) -> Path:
+    """The folder of a one-run grid's run as train_run leaves it when finished (its
+    config.yaml and result.json; no training needed: a grid skips it)."""
+    (run,) = expand_grid(config)
+    folder = out / "runs" / run.name
+    folder.mkdir(parents=True)
+    spec = dict(vars(run.spec), teacher_kinds=["optimal"], preset="doorkey")
+    (folder / "config.yaml").write_text(yaml.safe_dump(spec))
+    (folder / "result.json").write_text('{"finished": true}')
+    return folder
+
+
 def test_reusing_dir_checks_finished_runs_settings(tmp_path: Path) -> None:
     """A changed experiment may reuse DIR (e.g. one more seed) only if its finished runs were made
     with the settings the new grid asks of them."""
@@ -380,13 +392,7 @@ def test_reusing_dir_checks_finished_runs_settings(tmp_path: Path) -> None:
     )
     config = load_config(write_yaml(tmp_path / "a.yaml", data))
     out = tmp_path / "out"
-    (run,) = expand_grid(config)
-    # a finished run folder as train_run leaves it (no training needed: it is skipped)
-    folder = out / "runs" / run.name
-    folder.mkdir(parents=True)
-    spec = dict(vars(run.spec), teacher_kinds=["optimal"], preset="doorkey")
-    (folder / "config.yaml").write_text(yaml.safe_dump(spec))
-    (folder / "result.json").write_text('{"finished": true}')
+    fake_finished_run(config, out)
     summary = run_local(config, out, workers=1, live=False)
     assert summary.skipped == 1 and not summary.finished
 

@@ -17,13 +17,14 @@ from pathlib import Path
 
 import pytest
 import yaml
+from test_experiments import fake_finished_run
 from test_report_golden import GOLDEN, make_experiment
 
 from tlac.cli import main
 from tlac.errors import ConfigError
 from tlac.experiments.archive import ARCHIVE_FILE, KEPT_FILES, RunStore, read_archive
 from tlac.experiments.config import load_config
-from tlac.experiments.grid import ERROR_FILE, expand_grid
+from tlac.experiments.grid import ERROR_FILE
 from tlac.experiments.packing import pack_study
 from tlac.experiments.report import write_report
 from tlac.experiments.rundata import EPISODES_FILE, EVAL_FILE, USAGE_FILE
@@ -187,15 +188,10 @@ def test_a_resumed_grid_skips_the_packed_finished_runs(tmp_path: Path) -> None:
     (tmp_path / "a.yaml").write_text(yaml.safe_dump(data))
     config = load_config(tmp_path / "a.yaml")
     out = tmp_path / "out"
-    (run,) = expand_grid(config)
-    folder = out / "runs" / run.name
-    folder.mkdir(parents=True)
-    spec = dict(vars(run.spec), teacher_kinds=["optimal"], preset="doorkey")
-    (folder / "config.yaml").write_text(yaml.safe_dump(spec))
-    (folder / "result.json").write_text('{"finished": true}')
+    run_name = fake_finished_run(config, out).name
     (out / "experiment.yaml").write_text(yaml.safe_dump(data))
     pack_study(out)
-    assert read_archive(out / ARCHIVE_FILE)[run.name]["result.json"] == b'{"finished": true}'
+    assert read_archive(out / ARCHIVE_FILE)[run_name]["result.json"] == b'{"finished": true}'
 
     summary = run_local(config, out, workers=1, live=False)
     assert summary.skipped == 1 and not summary.finished
@@ -205,7 +201,7 @@ def test_a_resumed_grid_skips_the_packed_finished_runs(tmp_path: Path) -> None:
     (tmp_path / "b.yaml").write_text(yaml.safe_dump(data))
     changed = load_config(tmp_path / "b.yaml")
     with pytest.raises(
-        ConfigError, match=rf"runs\.tar\.xz:runs/{run.name}: finished with steps=300"
+        ConfigError, match=rf"runs\.tar\.xz:runs/{run_name}: finished with steps=300"
     ):
         run_local(changed, out, workers=1, live=False)
 
