@@ -424,8 +424,8 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self.optimizer.zero_grad(set_to_none=True)
         loss.backward()
         stacked = [p for p in self.net.parameters() if p.grad is not None]
-        own = {LOW: [self.log_std.grad]} if self.log_std is not None else {}
-        own = {m: [g for g in grads if g is not None] for m, grads in own.items()}
+        log_std_grad = None if self.log_std is None else self.log_std.grad
+        own = {} if log_std_grad is None else {LOW: [log_std_grad]}  # the low level's own
         norms = member_grad_norms([p.grad for p in stacked], self.net.members, own)
         stop_if_not_finite(norms, "TL-AC", self.num_timesteps, "gradient norm")
         coefs = clip_coefficients(norms, self.config.max_grad_norm)
