@@ -225,11 +225,11 @@ class TLACConfig:
     """With solo episodes: multiply the imitation weight by ``1 - competence``, so that the
     student stops copying its teachers as its solo episodes match their assisted returns, and
     copies again if it falls back (Kickstarting's annealing, Schmitt et al. 2018, driven by
-    the student's measured competence rather than by time). On in the preset for a user's
-    environment (presets/default.yaml), with low_level_data agent: there the student's own
-    policy gradient takes over as the imitation fades, so it learns past a weak teacher
-    (docs/graduation.md, "Learning past the teachers"). Off in both variants: with the
-    imitation term alone RMSprop normalises a slowly varying scale away."""
+    the student's measured competence rather than by time). On in the opt-in preset
+    ``past-teachers`` (presets/past-teachers.yaml), with low_level_data agent: there the
+    student's own policy gradient takes over as the imitation fades, so it can learn past a
+    weak teacher (docs/graduation.md, "Learning past the teachers"). Off in both variants:
+    with the imitation term alone RMSprop normalises a slowly varying scale away."""
     solo_greedy: bool = False
     """With solo episodes: the student acts greedily in them (its most likely action; the Box
     mean), as it is deployed, so that competence measures the deployed student. Meant with
