@@ -275,6 +275,11 @@ def stop_if_not_finite(value: torch.Tensor, algo: str, step: int, what: str = "l
         )
 
 
+MAX_SEED = 2**31 - 1
+"""The largest seed: the environments and generators are seeded with the seed plus small
+offsets, and NumPy's legacy seeding (Gymnasium's spaces) takes at most 2**32 - 1."""
+
+
 def check_seed(seed: Any) -> int:
     """A seed is an integer from 0 to MAX_SEED; else ConfigError.
 
@@ -288,8 +293,3 @@ def check_seed(seed: Any) -> int:
     ):
         raise ConfigError(f"seed must be an integer from 0 to {MAX_SEED}, got {seed!r}")
     return int(seed)
-
-
-MAX_SEED = 2**31 - 1
-"""The largest seed: the environments and generators are seeded with the seed plus small
-offsets, and NumPy's legacy seeding (Gymnasium's spaces) takes at most 2**32 - 1."""
