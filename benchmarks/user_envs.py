@@ -231,24 +231,26 @@ runs at tens of steps per second here); LunarLander's agent is at about PPO's ow
 scores and versions)."""
 
 
-def load_weak_teacher(env_id: str) -> Any:
-    """The pretrained agent of the weak suite for ``env_id``, as SB3 saved it."""
+def _weak_algo(env_id: str) -> Any:
+    """The SB3 class of the weak suite's agent for ``env_id``."""
     from stable_baselines3 import PPO, SAC
 
-    algo = {"ppo": PPO, "sac": SAC}[WEAK_TEACHERS[env_id]["algo"]]
-    return algo.load(WEAK_TEACHERS_DIR / f"{env_id}.zip", device="cpu")
+    return {"ppo": PPO, "sac": SAC}[WEAK_TEACHERS[env_id]["algo"]]
+
+
+def load_weak_teacher(env_id: str) -> Any:
+    """The pretrained agent of the weak suite for ``env_id``, as SB3 saved it."""
+    return _weak_algo(env_id).load(WEAK_TEACHERS_DIR / f"{env_id}.zip", device="cpu")
 
 
 def train_weak_teacher(env_id: str) -> Path:
     """Train the weak suite's agent for ``env_id`` as WEAK_TEACHERS says, save it, and return
     the path of its zip."""
     import torch
-    from stable_baselines3 import PPO, SAC
 
     torch.set_num_threads(1)
     spec = WEAK_TEACHERS[env_id]
-    algo = {"ppo": PPO, "sac": SAC}[spec["algo"]]
-    model = algo("MlpPolicy", gym.make(env_id), seed=spec["seed"], device="cpu")
+    model = _weak_algo(env_id)("MlpPolicy", gym.make(env_id), seed=spec["seed"], device="cpu")
     model.learn(spec["steps"])
     WEAK_TEACHERS_DIR.mkdir(parents=True, exist_ok=True)
     path = WEAK_TEACHERS_DIR / f"{env_id}.zip"
