@@ -180,6 +180,8 @@ CLI_CASES: list[tuple[list[str], str]] = [
     ([*T, "--seed", "4294967296"], "seed must be an integer from 0 to 2147483647"),
     ([*T, "--algo", "dqn-tlql", "--selector", "ucb1"], "--selector ucb1 replaces TL-AC's"),
     ([*T, "--set", "preset=hopper"], "the preset is chosen with --preset"),
+    ([*T, "--set", "schedule_horizon=10"], "schedule_horizon: expected an integer >= the run's"),
+    ([*T, "--set", "schedule_horizon=1e6"], "schedule_horizon: expected an integer"),
     ([*T, "--algo", "ac-teach", "--set", "gamma=1.5"], "gamma"),
     ([*T, "--seed", "1.5"], "got '1.5'"),
     ([*T, "--seed", "abc"], "got 'abc'"),

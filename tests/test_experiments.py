@@ -551,3 +551,24 @@ def test_the_papers_doorkey_teachers_stand_beside_ours_under_both_names():
     assert shown["ppo"] == shown["optimal"] == stated
     assert (shown["ppo-good"]["mean"], shown["ppo-noisy"]["mean"]) == (0.83, 0.30)
     assert shown["ppo-L"] is None
+
+
+def test_schedule_horizon_stretches_the_papers_schedules() -> None:
+    """A 3e5-step Hopper run with ``schedule_horizon: 1000000`` follows Table 7's / 8's linear
+    schedules as the paper's 1e6-step run has them at each step (issue 42, point 2); the
+    setting is consumed before the algorithm sees it."""
+    from tlac.run import RunSpec, hyperparameters
+
+    def run(algo: str, **overrides: object) -> dict:
+        return hyperparameters(
+            RunSpec(env="hopper-bullet", algo=algo, steps=300_000, overrides=overrides)
+        )
+
+    a2c = run("a2c", schedule_horizon=1_000_000)
+    assert "schedule_horizon" not in a2c
+    assert a2c["learning_rate"] == {"linear": [9.6e-4, 9.6e-4 + (5e-4 - 9.6e-4) * 0.3]}
+    tlac = run("tlac", variant="paper", schedule_horizon=1_000_000)
+    assert tlac["clip_range"] == {"linear": [0.3, 0.24]}
+    assert tlac["target_kl"] == {"linear": [0.04, 0.031]}
+    assert tlac["ent_coef"] == 1e-4  # numbers unchanged
+    assert run("tlac")["clip_range"] == {"linear": [0.3, 0.1]}  # without it: the run's length

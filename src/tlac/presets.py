@@ -65,3 +65,36 @@ def make_schedule(value: Any, field: str = "schedule") -> Schedule:
         return lambda progress_remaining: end + progress_remaining * (start - end)
     constant = float(value)
     return lambda _progress_remaining: constant
+
+
+SCHEDULE_HORIZON = "schedule_horizon"
+"""The run setting (``--set schedule_horizon=N``, or an experiment's ``overrides``) that makes
+a run shorter than the paper's follow the paper's schedules (:func:`stretch_schedules`)."""
+
+
+def stretch_schedules(hp: dict[str, Any], steps: int, horizon: Any) -> dict[str, Any]:
+    """``hp`` with every ``{linear: [start, end]}`` rewritten so that a run of ``steps`` steps
+    follows the schedule the paper ran over ``horizon`` steps, up to where the run stops: a
+    linear schedule at step ``t`` of the paper's run is ``start + (end - start) * t / horizon``,
+    so over ``t`` in ``[0, steps]`` it is the linear schedule from ``start`` to
+    ``start + (end - start) * steps / horizon``, exactly (Hopper's Table 8 schedules span 1e6
+    steps; our 3e5-step studies stop at 30% of them). Numbers are kept as they are.
+
+    >>> stretch_schedules({"learning_rate": {"linear": [5e-4, 3e-5]}, "gamma": 0.99}, 300_000, 1_000_000)
+    {'learning_rate': {'linear': [0.0005, 0.000359]}, 'gamma': 0.99}
+    >>> stretch_schedules({"clip_range": {"linear": [0.3, 0.1]}}, 10, 5)
+    Traceback (most recent call last):
+    tlac.errors.ConfigError: schedule_horizon: expected an integer >= the run's 10 steps, got 5
+    """
+    if isinstance(horizon, bool) or not isinstance(horizon, int) or horizon < steps:
+        raise ConfigError(
+            f"{SCHEDULE_HORIZON}: expected an integer >= the run's {steps} steps, got {horizon!r}"
+        )
+    out = dict(hp)
+    for key, value in hp.items():
+        if isinstance(value, dict) and list(value) == ["linear"]:
+            validate_schedule(key, value)
+            start, end = (float(v) for v in value["linear"])
+            reached = start + (end - start) * steps / horizon
+            out[key] = {"linear": [start, round(reached, 12)]}
+    return out

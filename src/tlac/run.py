@@ -31,7 +31,7 @@ from tlac.algorithms.common import check_seed, safe_torch_load
 from tlac.domains import Domain, get_domain, make_teachers, make_vec_env, parse_teacher_spec
 from tlac.errors import ConfigError, UnknownNameError, read_yaml_file
 from tlac.evaluation import evaluate_student
-from tlac.presets import load_preset
+from tlac.presets import SCHEDULE_HORIZON, load_preset, stretch_schedules
 from tlac.recording import MONITOR_FILE, Recorder, platform_record
 from tlac.selectors import SELECTOR_NAMES
 
@@ -158,7 +158,8 @@ def check_in_process(hp: dict[str, Any]) -> None:
 
 
 def hyperparameters(spec: RunSpec) -> dict[str, Any]:
-    """The preset's settings for ``spec.algo`` with ``spec.overrides`` applied."""
+    """The preset's settings for ``spec.algo`` with ``spec.overrides`` applied (an override
+    ``schedule_horizon`` stretches the linear schedules: :func:`tlac.presets.stretch_schedules`)."""
     hp = load_preset(spec.resolved_preset(), spec.algo)
     if "preset" in spec.overrides:
         raise ConfigError(
@@ -171,6 +172,8 @@ def hyperparameters(spec: RunSpec) -> dict[str, Any]:
             "experiment file), not with --set selector=..."
         )
     hp.update(spec.overrides)
+    if SCHEDULE_HORIZON in hp:  # a run shorter than the paper's, on the paper's schedules
+        hp = stretch_schedules(hp, spec.steps, hp.pop(SCHEDULE_HORIZON))
     if spec.algo == "tlac":
         hp["selector"] = spec.selector
     return hp
