@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
+from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, unwrap_vec_normalize
 
 MONITOR_FILE = "monitor.csv"
 """Written beside episodes.csv in stable-baselines3's Monitor format (a JSON header line, then
@@ -111,6 +111,8 @@ class EpisodeRecorder(VecEnvWrapper):
 
     def __init__(self, venv: VecEnv, path: str | Path | None = None, window: int = 20):
         super().__init__(venv)
+        # returns in the environment's own units even under a user's VecNormalize
+        self._vec_normalize = unwrap_vec_normalize(venv)
         self.num_timesteps = 0
         self.episode_returns: deque[float] = deque(maxlen=window)
         self.episode_lengths: deque[int] = deque(maxlen=window)
@@ -153,7 +155,8 @@ class EpisodeRecorder(VecEnvWrapper):
         obs, rewards, dones, infos = self.venv.step_wait()
         infos = list(infos)  # SubprocVecEnv returns a tuple
         self.num_timesteps += self.num_envs
-        self._returns += rewards
+        vec_normalize = self._vec_normalize
+        self._returns += rewards if vec_normalize is None else vec_normalize.get_original_reward()
         self._lengths += 1
         for i in np.flatnonzero(dones):
             ret, length = float(self._returns[i]), int(self._lengths[i])

@@ -25,6 +25,7 @@ from typing import Any
 
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.logger import Logger, configure
+from stable_baselines3.common.vec_env import VecNormalize, unwrap_vec_normalize
 
 from tlac.errors import ConfigError
 
@@ -39,12 +40,20 @@ class SB3Compat:
     _tb_configured: bool = False
 
     def get_env(self) -> Any:
-        """The training environments (SB3's name)."""
-        return self.env
+        """The training environments (SB3's name): the VecEnv the user gave (or tlac made),
+        without the episode recorder tlac wraps around it, so that SB3's callbacks find the
+        same wrappers as in their evaluation environments (``EvalCallback`` compares the types
+        and syncs a ``VecNormalize`` layer by layer)."""
+        from tlac.recording import EpisodeRecorder
 
-    def get_vec_normalize_env(self) -> None:
-        """tlac does not normalise observations with ``VecNormalize`` (SB3 callbacks ask)."""
-        return None
+        env = self.env
+        return env.venv if isinstance(env, EpisodeRecorder) else env
+
+    def get_vec_normalize_env(self) -> VecNormalize | None:
+        """The ``VecNormalize`` in the training environments' wrappers, if the user gave one
+        (SB3's name): ``EvalCallback`` syncs its statistics into the evaluation environments
+        and ``CheckpointCallback(save_vecnormalize=True)`` saves it."""
+        return unwrap_vec_normalize(self.env) if self.env is not None else None
 
     @property
     def logger(self) -> Logger:

@@ -135,6 +135,19 @@ def query_teachers(
         out[rows] = ask_teacher(teacher, obs[rows], action_space)
 
 
+def original_obs(vec_normalize: Any) -> np.ndarray:
+    """The observations of the environments' last reset or step as they produced them, before
+    the user's SB3 ``VecNormalize`` normalised them: what teachers (trained on raw observations,
+    or carrying their own statistics) are given, while the networks see the normalised ones."""
+    return np.asarray(vec_normalize.get_original_obs(), dtype=np.float32)
+
+
+def original_rewards(vec_normalize: Any) -> np.ndarray:
+    """The last step's rewards before the user's ``VecNormalize`` scaled them (episode returns
+    are counted in the environment's own units)."""
+    return np.asarray(vec_normalize.get_original_reward(), dtype=np.float64)
+
+
 def space_to_data(space: gym.Space) -> dict[str, Any]:
     """A Box or Discrete space as plain data (lists, numbers, strings), so that checkpoints
     load with ``torch.load(weights_only=True)``: nothing in them is unpickled as code.

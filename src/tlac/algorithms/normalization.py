@@ -40,6 +40,21 @@ def set_rms_state(rms: RunningMeanStd, state: dict[str, Any]) -> None:
     rms.count = float(state["count"])
 
 
+def vec_normalize_state(vec_normalize: Any) -> dict[str, Any]:
+    """A user's SB3 ``VecNormalize`` statistics as tensors and numbers (what
+    ``TLAC.save`` stores beside the networks; no pickle)."""
+    return {
+        "obs_rms": rms_state(vec_normalize.obs_rms),
+        "ret_rms": rms_state(vec_normalize.ret_rms),
+    }
+
+
+def set_vec_normalize_state(vec_normalize: Any, state: dict[str, Any]) -> None:
+    """Put saved statistics (:func:`vec_normalize_state`) into a ``VecNormalize``."""
+    set_rms_state(vec_normalize.obs_rms, state["obs_rms"])
+    set_rms_state(vec_normalize.ret_rms, state["ret_rms"])
+
+
 class Normalizer:
     """Observation and/or reward normalisation for ``n_envs`` parallel environments."""
 

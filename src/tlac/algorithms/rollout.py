@@ -31,6 +31,7 @@ class Rollout:
     returns: np.ndarray  # (T, E), filled by compute_gae
     solo: np.ndarray  # (T, E) float32: 1 in an episode the student plays alone (graduation)
     net_obs: np.ndarray  # (T, E, obs_dim) float32: what the networks saw (normalised), if not obs
+    teacher_obs: np.ndarray  # (T, E, obs_dim) float32: what the teachers saw, under a VecNormalize
 
     @classmethod
     def empty(
@@ -51,6 +52,7 @@ class Rollout:
             returns=z(*te),
             solo=z(*te),
             net_obs=z(*te, obs_dim),
+            teacher_obs=z(*te, obs_dim),
         )
 
     def flat(self) -> dict[str, torch.Tensor]:

@@ -26,6 +26,7 @@ from tlac.algorithms.common import (
     space_to_data,
 )
 from tlac.algorithms.graduation import StudentSnapshot
+from tlac.algorithms.normalization import set_vec_normalize_state, vec_normalize_state
 from tlac.algorithms.resume import (
     attributes_state,
     generator_states,
@@ -205,6 +206,9 @@ class TLACPersistence:
             "normalizer": None if self.normalizer is None else self.normalizer.state(),
             "deployed": None if self.deployed is None else self.deployed.state(),
         }
+        vec_normalize = self.get_vec_normalize_env()
+        if vec_normalize is not None:  # the user's VecNormalize: its statistics, as tensors
+            state["vec_normalize"] = vec_normalize_state(vec_normalize)
         if training_state:
             state["training"] = self._training_state()
         if run_state is not None:
@@ -322,6 +326,9 @@ class TLACPersistence:
             if state.get("normalizer") is None:
                 raise ConfigError(f"{path} was saved without its normalisation statistics")
             model.normalizer.set_state(state["normalizer"])
+        vec_normalize = model.get_vec_normalize_env()
+        if vec_normalize is not None and state.get("vec_normalize") is not None:
+            set_vec_normalize_state(vec_normalize, state["vec_normalize"])  # as at save time
         if state.get("deployed") is not None:  # the kept student (keep_best_student)
             model.deployed = StudentSnapshot.from_state(
                 state["deployed"], copy.deepcopy(model.normalizer)

@@ -25,6 +25,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 import torch
+from stable_baselines3.common.vec_env import unwrap_vec_normalize
 from torch import nn
 
 from tlac.algorithms import losses
@@ -33,6 +34,8 @@ from tlac.algorithms.common import (
     check_seed,
     check_total_timesteps,
     make_progress_bar,
+    original_obs,
+    original_rewards,
     stop_if_not_finite,
 )
 from tlac.algorithms.graduation import (
@@ -192,6 +195,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             self._episode_returns = np.zeros(E)
         if cfg.use_sde:
             self._resample_sde_noise()
+        vec_normalize = unwrap_vec_normalize(self.env)  # the user's: teachers get raw observations
         for t in range(T):
             if cfg.use_sde and cfg.sde_sample_freq > 0 and t > 0 and t % cfg.sde_sample_freq == 0:
                 self._resample_sde_noise()
@@ -215,12 +219,15 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             if cfg.solo_greedy and self.solo is not None:  # solo: the student as deployed
                 in_solo = solo.reshape(-1, *[1] * (actions.ndim - 1))
                 actions = np.where(in_solo, self._greedy_low(low_out), actions)
-            actions = self._apply_teachers(choices, self._last_obs, actions)  # line 18
+            teacher_obs = self._last_obs if vec_normalize is None else original_obs(vec_normalize)
+            actions = self._apply_teachers(choices, teacher_obs, actions)  # line 18
 
             new_obs, rewards, dones, infos = self.env.step(self._to_env_actions(actions))  # line 19
             self.num_timesteps += E
             rewards = np.asarray(rewards, dtype=np.float32).copy()
-            self._episode_returns += rewards
+            self._episode_returns += (
+                rewards if vec_normalize is None else original_rewards(vec_normalize)
+            )
             if self.normalizer is not None:  # the training rewards only; returns stay raw
                 rewards = self.normalizer.scale_rewards(rewards, dones)
             for i in np.flatnonzero(dones):
@@ -234,6 +241,8 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 self._episode_returns[i] = 0.0
 
             ro.obs[t] = obs  # line 20: the transition and both levels' log-probabilities
+            if vec_normalize is not None:
+                ro.teacher_obs[t] = teacher_obs.reshape(E, self.obs_dim)
             ro.actions[t] = actions
             ro.choices[t] = choices
             ro.rewards[t] = rewards
@@ -269,7 +278,9 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         imitates = self.advice_buffer is not None and distill > 0
         uninformed = None
         if imitates:
-            advice = self._advice_on(data["obs"])
+            advice = self._advice_on(
+                data["obs"] if unwrap_vec_normalize(self.env) is None else data["teacher_obs"]
+            )
             self.advice_buffer.add(data["obs"], advice)
             if advice.is_floating_point() and self.discrete:  # distributions
                 if cfg.low_level_data == "uninformed":

@@ -5,6 +5,7 @@ domain's ``make_teacher``. Measuring a teacher on a domain: :mod:`tlac.teachers.
 """
 
 from tlac.teachers.base import Teacher, as_teacher, check_actions, unique_names
+from tlac.teachers.sb3 import from_rl_zoo, from_sb3
 from tlac.teachers.wrappers import (
     GaussianNoiseTeacher,
     MixedRandomTeacher,
@@ -21,6 +22,8 @@ __all__ = [
     "Teacher",
     "as_teacher",
     "check_actions",
+    "from_rl_zoo",
+    "from_sb3",
     "sample_uniform",
     "unique_names",
 ]

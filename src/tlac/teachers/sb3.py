@@ -1,0 +1,135 @@
+"""Stable-baselines3 and rl-baselines3-zoo agents as teachers, with their ``VecNormalize``
+statistics.
+
+An agent trained under SB3's ``VecNormalize`` acts on NORMALISED observations: given the raw
+ones it acts badly (a CartPole PPO agent that scores 500 with its statistics scores about 100
+without). TL-AC hands every teacher the environment's raw observations (under a user's own
+``VecNormalize`` too, see :func:`tlac.algorithms.common.original_obs`), so such a teacher must
+carry its statistics: :func:`from_sb3` and :func:`from_rl_zoo` build one that normalises each
+observation with them (frozen: a teacher is never trained) before asking the agent.
+
+Loading an SB3 ``.zip`` or a ``vecnormalize.pkl`` unpickles Python objects, which can run code:
+load only files you trust. These functions are the explicit way to do it; nothing in tlac opens
+such a file on its own.
+"""
+
+from __future__ import annotations
+
+import pickle
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tlac.errors import ConfigError
+
+SB3_CLASSES = ("a2c", "ddpg", "dqn", "ppo", "sac", "td3")
+"""The stable-baselines3 algorithms a saved agent can be loaded as (rl-zoo's folder names)."""
+
+
+class NormalizedSB3Teacher:
+    """An SB3 model asked on observations normalised with frozen ``VecNormalize`` statistics
+    (deterministic actions by default)."""
+
+    def __init__(self, model: Any, vec_normalize: Any, name: str, deterministic: bool = True):
+        self.model, self.name, self.deterministic = model, name, deterministic
+        self.vec_normalize = vec_normalize
+        self.vec_normalize.training = False  # frozen statistics
+        self.vec_normalize.norm_reward = False
+
+    def predict(self, obs: np.ndarray) -> np.ndarray:
+        normalized = self.vec_normalize.normalize_obs(np.asarray(obs, dtype=np.float32))
+        actions, _ = self.model.predict(normalized, deterministic=self.deterministic)
+        return np.asarray(actions)
+
+
+def _sb3_class(algo: str) -> Any:
+    import stable_baselines3
+
+    if algo not in SB3_CLASSES:
+        raise ConfigError(f"algo: expected one of {', '.join(SB3_CLASSES)}, got {algo!r}")
+    return getattr(stable_baselines3, algo.upper())
+
+
+def load_vec_normalize(path: str | Path) -> Any:
+    """SB3's saved ``VecNormalize`` (``vec_normalize.save(path)``, rl-zoo's
+    ``vecnormalize.pkl``) without an environment: only its statistics are used. Unpickles the
+    file: trusted files only."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"VecNormalize statistics {str(path)!r}: no such file")
+    with path.open("rb") as f:
+        try:
+            vec_normalize = pickle.load(f)  # noqa: S301 - the caller's explicit, documented opt-in
+        except Exception as exc:  # noqa: BLE001 - any unpickling failure is a bad file
+            raise ConfigError(
+                f"VecNormalize statistics {str(path)!r}: not a saved VecNormalize ({exc})"
+            ) from None
+    if not isinstance(vec_normalize, VecNormalize):
+        raise ConfigError(
+            f"VecNormalize statistics {str(path)!r}: holds a {type(vec_normalize).__name__}, "
+            "not a VecNormalize"
+        )
+    return vec_normalize
+
+
+def from_sb3(
+    model: Any,
+    vec_normalize: Any = None,
+    algo: str = "ppo",
+    name: str | None = None,
+    deterministic: bool = True,
+) -> Any:
+    """A teacher from an SB3 agent: ``model`` is a loaded SB3 model or the path of its
+    ``.zip`` (loaded as ``algo``); ``vec_normalize`` is its ``VecNormalize`` (an object, or the
+    path of its saved statistics), or None for an agent trained on raw observations.
+
+    >>> import gymnasium as gym
+    >>> from stable_baselines3 import PPO
+    >>> teacher = from_sb3(PPO("MlpPolicy", gym.make("CartPole-v1")), name="ppo")
+    >>> teacher.predict(np.zeros((3, 4), np.float32)).shape
+    (3,)
+    """
+    from tlac.teachers.base import SB3Teacher
+
+    if isinstance(model, str | Path):
+        path = Path(model)
+        if not path.is_file():
+            raise ConfigError(f"SB3 model {str(path)!r}: no such file")
+        model = _sb3_class(algo).load(str(path), device="cpu")
+    label = name or type(model).__name__.lower()
+    if vec_normalize is None:
+        return SB3Teacher(model, label, deterministic)
+    if isinstance(vec_normalize, str | Path):
+        vec_normalize = load_vec_normalize(vec_normalize)
+    return NormalizedSB3Teacher(model, vec_normalize, label, deterministic)
+
+
+def from_rl_zoo(folder: str | Path, algo: str | None = None, name: str | None = None) -> Any:
+    """A teacher from an rl-baselines3-zoo run folder (``logs/<algo>/<EnvId>_<n>/``): its
+    ``<EnvId>.zip`` (else ``best_model.zip``) and, when the run normalised, its
+    ``<EnvId>/vecnormalize.pkl``. ``algo``: the SB3 class (default: the parent folder's name,
+    as rl-zoo lays runs out)."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ConfigError(f"rl-zoo run folder {str(folder)!r}: no such folder")
+    env_id = re.sub(r"_\d+$", "", folder.name)
+    algo = algo or folder.parent.name.lower()
+    if algo not in SB3_CLASSES:
+        raise ConfigError(
+            f"rl-zoo run folder {str(folder)!r}: cannot tell the algorithm from its parent "
+            f"folder {folder.parent.name!r}; pass algo= one of {', '.join(SB3_CLASSES)}"
+        )
+    zips = [folder / f"{env_id}.zip", folder / "best_model.zip"]
+    model = next((p for p in zips if p.is_file()), None)
+    if model is None:
+        raise ConfigError(
+            f"rl-zoo run folder {str(folder)!r}: holds neither {env_id}.zip nor best_model.zip"
+        )
+    stats = folder / env_id / "vecnormalize.pkl"
+    return from_sb3(
+        model, stats if stats.is_file() else None, algo=algo, name=name or f"{algo}-{env_id}"
+    )
