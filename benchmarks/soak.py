@@ -46,7 +46,7 @@ def main() -> None:
     print(f"{'steps':>9} {'RSS MB':>8} {'steps/s':>8} {'finite':>6} {'train return':>12}")
     while model.num_timesteps < args.steps:
         t0 = time.perf_counter()
-        model.learn(min(args.every, args.steps - model.num_timesteps), progress_bar=False)
+        model.learn(min(args.every, args.steps - model.num_timesteps), reset_num_timesteps=False)
         finite = all(bool(torch.isfinite(p).all()) for p in model.net.parameters())
         returns = list(model.env.episode_returns)[-100:]
         row = {

@@ -60,7 +60,7 @@ def make_tlac(seed: int, variant: str):
         "doorkey", teachers=["optimal", "random", "random"], seed=seed, variant=variant, **preset
     )
     model.learn(1008, progress_bar=False)  # warm-up
-    return lambda steps: model.learn(steps, progress_bar=False)
+    return lambda steps: model.learn(steps, reset_num_timesteps=False)
 
 
 def make_sb3_ppo(seed: int):

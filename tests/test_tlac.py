@@ -110,7 +110,7 @@ def test_save_load_gives_identical_predictions(tmp_path):
     )
     # a loaded model trains on when given an env and the same number of teachers
     again = TLAC.load(path, env=pendulum_vec(1), teachers=[swing_teacher])
-    again.learn(16, progress_bar=False)
+    again.learn(16, reset_num_timesteps=False)  # SB3: continue the count
     assert again.num_timesteps == 48
     with pytest.raises(ConfigError, match="trained with 1 teachers"):
         TLAC.load(path, env=pendulum_vec(1), teachers=[swing_teacher, swing_teacher])

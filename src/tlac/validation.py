@@ -185,6 +185,15 @@ def _check_type(algo: str, name: str, value: Any, hint: Any) -> None:
             raise _type_error(algo, name, "true or false", value)
     elif hint is int or text in ("int", "int | None", "typing.Optional[int]"):
         _check_number(algo, name, value, integer=True)
+    elif callable(value) and "dict" in text:  # SB3's f(progress_remaining)
+        raise _type_error(
+            algo,
+            name,
+            "a number or {linear: [start, end]} (a function cannot be saved in a tlac model "
+            "file, which holds plain data and loads without running code; SB3's "
+            "linear_schedule is {linear: [start, end]})",
+            value,
+        )
     elif isinstance(value, dict) and "dict" in text:
         _check_schedule(algo, name, value)
     elif "float" in text:

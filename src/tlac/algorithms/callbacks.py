@@ -38,6 +38,7 @@ class SB3Compat:
     verbose = 0
     tensorboard_log: str | None = None
     _tb_configured: bool = False
+    tb_log_name: str = "TLAC"
 
     def get_env(self) -> Any:
         """The training environments (SB3's name): the VecEnv the user gave (or tlac made),
@@ -69,15 +70,40 @@ class SB3Compat:
         what SB3 callbacks record."""
         self._sb3_logger = logger
 
+    def _sb3_learn_arguments(
+        self, log_interval: Any, tb_log_name: Any, reset_num_timesteps: Any
+    ) -> None:
+        """Check and apply SB3's ``learn`` arguments ``log_interval`` (steps here),
+        ``tb_log_name`` and ``reset_num_timesteps`` (its flag only; the caller resets)."""
+        if log_interval is not None:
+            if (
+                isinstance(log_interval, bool)
+                or not isinstance(log_interval, int)
+                or log_interval < 1
+            ):
+                raise ConfigError(
+                    f"log_interval: expected a positive number of steps, got {log_interval!r}"
+                )
+            self.log_interval = log_interval
+        if not isinstance(tb_log_name, str) or not tb_log_name or "/" in tb_log_name:
+            raise ConfigError(f"tb_log_name: expected a folder name, got {tb_log_name!r}")
+        if tb_log_name != self.tb_log_name:
+            self.tb_log_name, self._tb_configured = tb_log_name, False
+        if not isinstance(reset_num_timesteps, bool):
+            raise ConfigError(
+                f"reset_num_timesteps: expected True or False, got {reset_num_timesteps!r}"
+            )
+
     def _sb3_output(self) -> bool:
         """Whether ``learn`` writes its scalars to the SB3 logger (``verbose`` or
         ``tensorboard_log``); configures that logger on first use, a TensorBoard run in the
-        next free ``TLAC_<n>`` folder."""
+        next free ``<tb_log_name>_<n>`` folder (``TLAC_<n>`` by default)."""
         if self.tensorboard_log is not None and not self._tb_configured:
             folder = Path(self.tensorboard_log)
-            n = 1 + sum(1 for p in folder.glob("TLAC_*")) if folder.exists() else 1
+            name = self.tb_log_name
+            n = 1 + sum(1 for p in folder.glob(f"{name}_*")) if folder.exists() else 1
             formats = ["tensorboard"] + (["stdout"] if self.verbose else [])
-            self.set_logger(configure(str(folder / f"TLAC_{n}"), formats))
+            self.set_logger(configure(str(folder / f"{name}_{n}"), formats))
             self._tb_configured = True
         elif self.verbose and self._sb3_logger is None:
             self.set_logger(configure(None, ["stdout"]))

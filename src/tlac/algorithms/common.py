@@ -85,9 +85,15 @@ def flat_obs(obs: np.ndarray, n: int) -> np.ndarray:
 
 
 def checkpoint_path(path: str | Path) -> Path:
-    """``path`` with the ``.pt`` suffix (``save`` takes the path without it)."""
+    """Where ``save(path)`` writes: ``path`` itself when it has a suffix (``model.pt``, or
+    ``rl_model_3008_steps.zip`` as SB3's CheckpointCallback names it: a torch file is a zip
+    archive), else ``path`` + ``.pt`` (as SB3 adds ``.zip``).
+
+    >>> checkpoint_path("runs/model"), checkpoint_path("m.zip"), checkpoint_path("m.pt")
+    (PosixPath('runs/model.pt'), PosixPath('m.zip'), PosixPath('m.pt'))
+    """
     p = Path(path)
-    return p if p.suffix == ".pt" else p.with_name(p.name + ".pt")
+    return p if p.suffix else p.with_name(p.name + ".pt")
 
 
 def check_total_timesteps(total_timesteps: Any) -> int:
@@ -291,6 +297,12 @@ def stop_if_not_finite(value: torch.Tensor, algo: str, step: int, what: str = "l
 MAX_SEED = 2**31 - 1
 """The largest seed: the environments and generators are seeded with the seed plus small
 offsets, and NumPy's legacy seeding (Gymnasium's spaces) takes at most 2**32 - 1."""
+
+
+def random_seed() -> int:
+    """A seed drawn from the operating system's entropy (``seed=None``, as SB3 takes it); the
+    model records it (``model.seed``), so the run can be repeated."""
+    return int(np.random.SeedSequence().entropy % (MAX_SEED + 1))
 
 
 def check_seed(seed: Any) -> int:

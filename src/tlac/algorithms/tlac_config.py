@@ -13,7 +13,7 @@ from typing import Any
 
 from tlac.algorithms import losses
 from tlac.algorithms.encoding import ENCODINGS
-from tlac.domains import get_domain
+from tlac.domains import domain_names, get_domain
 from tlac.errors import ConfigError, UnknownNameError
 from tlac.presets import load_preset, validate_schedule
 from tlac.selectors import SELECTOR_NAMES
@@ -392,7 +392,8 @@ def resolve_settings(env: Any, preset: str | None, settings: dict[str, Any]) -> 
     a domain name's own, as ``tlac train`` uses it, else ``presets/default.yaml``; a preset name;
     None: none), then SB3's ``policy_kwargs``, then the settings given by name."""
     if preset == "auto":
-        base = domain_preset(env) if isinstance(env, str) else load_preset("default", "tlac")
+        is_domain = isinstance(env, str) and env in domain_names()
+        base = domain_preset(env) if is_domain else load_preset("default", "tlac")
     else:
         base = {} if preset is None else load_preset(preset, "tlac")
     settings = dict(settings)

@@ -36,7 +36,7 @@ from tlac.algorithms.resume import (
     vec_env_state,
 )
 from tlac.algorithms.tlac_config import TLACConfig
-from tlac.domains import get_domain, make_teachers, make_vec_env
+from tlac.domains import domain_names, get_domain, make_teachers, make_vec_env
 from tlac.errors import ConfigError
 from tlac.recording import EpisodeRecorder, find_episode_recorder
 from tlac.teachers.base import Teacher, as_teacher, teacher_label, unique_names
@@ -46,11 +46,27 @@ FORMAT = "tlac.TLAC/2"
 pickled the Gymnasium spaces and needed an unsafe load."""
 
 
+def is_gym_id(name: str) -> bool:
+    """Whether ``name`` is a registered Gymnasium id and not a tlac domain name (a domain's
+    name wins: ``doorkey`` is tlac's)."""
+    return name not in domain_names() and name in gym.registry
+
+
 def as_vec_env(env: Any, n_envs: int, seed: int, vec_env: str = "dummy") -> tuple[VecEnv, Any]:
-    """Accept a domain name, a Gymnasium env or an SB3 VecEnv; returns (vec_env, domain|None).
-    A domain name gets ``n_envs`` environments in a DummyVecEnv or (``vec_env="subproc"``) a
-    SubprocVecEnv."""
+    """Accept a domain name, a Gymnasium id (``"CartPole-v1"``, made as SB3 makes it), a
+    Gymnasium env or an SB3 VecEnv; returns (vec_env, domain|None). A domain name gets
+    ``n_envs`` environments in a DummyVecEnv or (``vec_env="subproc"``) a SubprocVecEnv; a
+    Gymnasium id ``n_envs`` in a DummyVecEnv."""
+    if isinstance(env, str) and is_gym_id(env):  # SB3's TLAC("CartPole-v1")
+        env_id = env
+        env = DummyVecEnv([lambda: gym.make(env_id) for _ in range(n_envs)])
+        env.seed(seed)
     if isinstance(env, str):
+        if env not in domain_names():
+            raise ConfigError(
+                f"unknown environment {env!r}: neither a tlac domain ({', '.join(domain_names())}) "
+                "nor a registered Gymnasium id"
+            )
         domain = get_domain(env)
         return make_vec_env(domain, n_envs, seed, None, subprocesses=vec_env == "subproc"), domain
     if isinstance(env, VecEnv):
@@ -176,6 +192,22 @@ class TLACPersistence:
                 f"got {len(self.teachers)}"
             )
         self._build(obs_space, action_space, names)
+
+    def set_env(self, env: Any, force_reset: bool = True) -> None:
+        """Train on other environments from now on (SB3's ``set_env``): a VecEnv, a Gymnasium
+        env or id, with the model's spaces and number of environments. ``force_reset``: start
+        new episodes at the next ``learn`` (SB3's default); False continues the current ones,
+        which only makes sense for the same environments."""
+        venv, _ = as_vec_env(env, self.n_envs, self.seed)
+        check_env_spaces(venv, self.observation_space, self.action_space)
+        if venv.num_envs != self.n_envs:
+            raise ConfigError(
+                f"set_env: the model steps {self.n_envs} environments at a time, got "
+                f"{venv.num_envs} (TLAC.load(path, env=...) sets them at load time)"
+            )
+        self.env, self.n_envs = venv, venv.num_envs
+        if force_reset:
+            self._last_obs = None
 
     def save(
         self,

@@ -36,6 +36,7 @@ from tlac.algorithms.common import (
     make_progress_bar,
     original_obs,
     original_rewards,
+    random_seed,
     stop_if_not_finite,
 )
 from tlac.algorithms.graduation import (
@@ -102,7 +103,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self,
         env: Any,
         teachers: Sequence[Any] = (),
-        seed: int = 0,
+        seed: int | None = 0,
         recorder: Recorder | None = None,
         preset: str | None = "auto",
         verbose: int = 0,
@@ -118,7 +119,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             torch_threads,
         )
         config = TLACConfig.from_settings(resolve_settings(env, preset, settings))
-        seed = check_seed(seed)
+        seed = random_seed() if seed is None else check_seed(seed)  # None: as SB3, a random one
         torch.manual_seed(seed)  # the networks' initialisation
         self._setup(config, seed, env, teachers, recorder)
 
@@ -511,16 +512,30 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self,
         total_timesteps: int,
         callback: Any = None,
-        progress_bar: bool = True,
+        log_interval: int | None = None,
+        tb_log_name: str = "TLAC",
+        reset_num_timesteps: bool = True,
+        progress_bar: bool = False,
     ) -> TLAC:
-        """Train for ``total_timesteps`` more environment steps (over all environments).
+        """Train for ``total_timesteps`` environment steps (over all environments), with
+        SB3's signature and defaults.
 
         ``callback``: a function ``f(model)`` run after every collect/update iteration
         (returning ``False`` stops), an SB3 ``BaseCallback`` (``EvalCallback``,
         ``CheckpointCallback``...) or a list of them (``tlac.algorithms.callbacks``).
+        ``log_interval``: environment steps per logged window of ``verbose`` /
+        ``tensorboard_log`` output (tlac logs by steps, where SB3 counts iterations); None:
+        the model's ``log_interval`` (2000). ``tb_log_name``: the TensorBoard run's folder
+        prefix (``<tb_log_name>_<n>``). ``reset_num_timesteps``: as SB3, True starts the step
+        count (and the schedules) at 0 with new episodes; False continues from the current
+        count, as chunked training does. A model loaded with ``resume=True`` always continues.
+        ``progress_bar``: off by default, as SB3 (``tlac train`` shows one).
         """
         total_timesteps = check_total_timesteps(total_timesteps)
         self._check_can_learn()
+        self._sb3_learn_arguments(log_interval, tb_log_name, reset_num_timesteps)
+        if reset_num_timesteps and self._resumed_schedule is None and self.num_timesteps:
+            self.num_timesteps, self._last_obs = 0, None  # SB3: a new count, new episodes
         start_steps = self.num_timesteps
         end_steps = start_steps + total_timesteps
         # the schedules' clock: this call's steps, or, right after a resume, the interrupted
