@@ -74,3 +74,37 @@ def test_sb3_callbacks_without_spurious_warnings(tmp_path, recwarn) -> None:
 def test_a_function_schedule_is_refused_with_the_reason() -> None:
     with pytest.raises(ConfigError, match="a function cannot be saved in a tlac model file"):
         TLAC("CartPole-v1", learning_rate=lambda progress: 3e-4 * progress)
+
+
+def test_the_headline_figures_reach_the_logs(tmp_path) -> None:
+    """teacher/* shares reach SB3's logger (TensorBoard) from Python; a run folder's
+    config.yaml holds every resolved setting and progress.csv the student-alone evaluation
+    (issue 43, point 3)."""
+    import csv
+
+    import yaml
+    from stable_baselines3.common.logger import Logger
+
+    from tlac.run import RunSpec, train_run
+
+    recorded: dict[str, float] = {}
+
+    class Keep(Logger):
+        def record(self, key, value, exclude=None):
+            recorded[key] = value
+
+        def dump(self, step=0):
+            pass
+
+    model = TLAC("CartPole-v1", teachers=[lambda o: int(o[2] > 0)], seed=0, verbose=1, **SMALL)
+    model.set_logger(Keep(folder=None, output_formats=[]))
+    model.learn(64, log_interval=32)
+    assert {"teacher/teacher0", "teacher/agent"} <= set(recorded)
+    assert abs(recorded["teacher/teacher0"] + recorded["teacher/agent"] - 1.0) < 1e-9
+
+    out = tmp_path / "run"
+    train_run(RunSpec(env="doorkey", steps=64, eval_every=64, eval_episodes=1), out)
+    config = yaml.safe_load((out / "config.yaml").read_text())
+    assert config["settings"]["variant"] == "graduate" and len(config["settings"]) > 40
+    rows = list(csv.reader((out / "progress.csv").open()))
+    assert {"eval/student_alone_mean", "eval/student_alone_std"} <= {r[1] for r in rows}

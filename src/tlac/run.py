@@ -415,6 +415,10 @@ def _train_locked(
     else:
         model = algo_cls(env=venv, teachers=teachers, seed=spec.seed, recorder=recorder, **hp)
         eval_file.write_text("timestep,mean_return,std_return,episodes\n")
+        settings = getattr(model, "config", None)
+        if dataclasses.is_dataclass(settings):  # every setting as resolved, defaults included
+            config["settings"] = dataclasses.asdict(settings)
+            (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
 
     # keep_best: [mean, timestep] of the best evaluation so far; its model is in BEST_MODEL
     best: list[Any] | None = meta.get("best_eval")
@@ -428,6 +432,9 @@ def _train_locked(
         eval_rows.append(row)
         with eval_file.open("a") as f:
             f.write(",".join(str(v) for v in row) + "\n")
+        recorder.record_metrics(  # progress.csv and TensorBoard: the headline figure
+            timestep, {"eval/student_alone_mean": row[1], "eval/student_alone_std": row[2]}
+        )
         if spec.keep_best and (best is None or row[1] >= best[0]):  # ties: the later one
             model.save(out / BEST_MODEL)
             best = [row[1], timestep]

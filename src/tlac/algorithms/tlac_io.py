@@ -108,10 +108,12 @@ def log_metrics(
     fps: float,
     episodes: EpisodeRecorder | None,
     sb3_output: bool,
+    sb3_only: dict[str, float] | None = None,
 ) -> None:
     """A logging step of ``model.learn``: the window's statistics, the speed and the recent
     training episodes, to the run folder's progress.csv and (verbose / TensorBoard) SB3's
-    logger."""
+    logger; ``sb3_only``: scalars for SB3's logger alone (the high level's choices, which a
+    run folder keeps per region in teacher_usage.csv)."""
     metrics["time/fps"] = fps
     metrics["time/total_timesteps"] = model.num_timesteps
     if episodes is not None and episodes.episode_returns:
@@ -120,7 +122,7 @@ def log_metrics(
     if model.recorder is not None:
         model.recorder.record_metrics(model.num_timesteps, metrics)
     if sb3_output:
-        for key, value in metrics.items():
+        for key, value in {**metrics, **(sb3_only or {})}.items():
             model.logger.record(key, value)
         model.logger.dump(model.num_timesteps)
 

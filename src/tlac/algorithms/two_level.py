@@ -546,6 +546,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         episodes = find_episode_recorder(self.env)
         bar = make_progress_bar(total_timesteps, "TL-AC", progress_bar)
         usage = np.zeros(self.n_choices)  # the high level's choices since the bar's last text
+        logged_usage = np.zeros(self.n_choices)  # ... since the last logged window
         window = MetricWindow(counts=("train/n_updates",))
         sb3_output = self._sb3_output()
         interval = self.recorder.log_interval if self.recorder else self.log_interval
@@ -556,12 +557,20 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         callbacks = LearnCallbacks(callback, self)
         while self.num_timesteps < end_steps:
             ro = self.collect()
-            usage += np.bincount(ro.choices.reshape(-1), minlength=self.n_choices)
+            counts = np.bincount(ro.choices.reshape(-1), minlength=self.n_choices)
+            usage += counts
+            logged_usage += counts
             progress_remaining = 1.0 - (self.num_timesteps - origin) / horizon
             window.add(self.update(ro, max(progress_remaining, 0.0)))
             if (self.recorder is not None or sb3_output) and self.num_timesteps >= next_log:
                 fps = (self.num_timesteps - start_steps) / max(time.time() - t0, 1e-9)
-                log_metrics(self, window.flush(), fps, episodes, sb3_output)
+                shares = logged_usage / max(logged_usage.sum(), 1.0)
+                names = [*self.teacher_names, "agent"]
+                usage_metrics = {
+                    f"teacher/{n}": float(v) for n, v in zip(names, shares, strict=True)
+                }
+                log_metrics(self, window.flush(), fps, episodes, sb3_output, usage_metrics)
+                logged_usage[:] = 0
                 next_log = next_log_step(self.num_timesteps, interval)
             if bar is not None:
                 bar.update(min(self.num_timesteps, end_steps) - bar.n - start_steps)
