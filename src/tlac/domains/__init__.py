@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import importlib.util
+import inspect
 import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -69,14 +70,18 @@ _DOMAINS: dict[str, str] = {
 }
 
 
-# Gymnasium ids of the built-in domains: id -> "module:factory" (imported only by gym.make)
-GYM_IDS: dict[str, str] = {
-    "tlac/DoorKey-v0": "tlac.domains.doorkey.env:make_doorkey_env",
-    "tlac/DoorKeyPartial-v0": "tlac.domains.doorkey.env:make_partial_doorkey_env",
-    "tlac/HopperBullet-v0": "tlac.domains.hopper.env:make_bullet_env",
-    "tlac/Hopper-v0": "tlac.domains.hopper.env:make_mujoco_env",
-    "tlac/PickPlace-v0": "tlac.domains.pickplace.env:make_env",
+# Gymnasium ids of the built-in domains: id -> ("module:factory", its episodes' step limit);
+# the factories are imported only by gym.make and take render_mode
+GYM_IDS: dict[str, tuple[str, int]] = {
+    "tlac/DoorKey-v0": ("tlac.domains.doorkey.env:make_doorkey_env", 490),  # MiniGrid's 10 * 7**2
+    "tlac/DoorKeyPartial-v0": ("tlac.domains.doorkey.env:make_partial_doorkey_env", 490),
+    "tlac/HopperBullet-v0": ("tlac.domains.hopper.env:make_bullet_env", 1000),
+    "tlac/Hopper-v0": ("tlac.domains.hopper.env:make_mujoco_env", 1000),
+    "tlac/PickPlace-v0": ("tlac.domains.pickplace.env:make_env", 100),
 }
+
+DEFAULT_PRESET_ALGOS = ("tlac", "ppo", "a2c", "dqn-tlql", "ac-teach")
+"""The algorithms that ``presets/default.yaml`` sets for a user's domain without its own."""
 
 # domains added with register_domain, by name; and those named "module:attribute", by that
 _USER_DOMAINS: dict[str, Domain] = {}
@@ -86,16 +91,16 @@ _IMPORTED: dict[str, Domain] = {}
 def register_gym_ids() -> None:
     """Register every built-in domain with Gymnasium (``gym.make("tlac/DoorKey-v0")``); done
     by ``import tlac``. The factories are imported only when an id is made."""
-    for env_id, entry_point in GYM_IDS.items():
+    for env_id, (entry_point, max_episode_steps) in GYM_IDS.items():
         if env_id not in gym.registry:
-            gym.register(id=env_id, entry_point=entry_point)
+            gym.register(id=env_id, entry_point=entry_point, max_episode_steps=max_episode_steps)
 
 
 def register_domain(domain: Domain, replace: bool = False) -> Domain:
     """Add a domain of your own, usable by name from Python (``TLAC("mine", teachers=[...])``),
     ``tlac train --env`` and experiment configs in this process, and as the Gymnasium id
-    ``tlac/<name>-v0``. A domain without a TL-AC preset gets ``presets/default.yaml`` (the one
-    for users' environments). In another process (``tlac train``, grid workers) name it
+    ``tlac/<name>-v0``. An algorithm without a preset in the domain gets ``presets/default.yaml``'s
+    (for TL-AC the one measured on users' environments; for the others their own defaults). In another process (``tlac train``, grid workers) name it
     ``module:attribute`` instead: the module is imported and its Domain used (see
     docs/architecture.md, "A domain of your own"). Returns the registered domain.
 
@@ -133,14 +138,35 @@ def register_domain(domain: Domain, replace: bool = False) -> Domain:
             f"a domain named {domain.name!r} exists already; pick another name"
             + ("" if domain.name in _DOMAINS else " or pass replace=True")
         )
-    if "tlac" not in domain.presets:
-        domain = dataclasses.replace(domain, presets={**domain.presets, "tlac": "default"})
+    missing = {algo: "default" for algo in DEFAULT_PRESET_ALGOS if algo not in domain.presets}
+    if missing:  # presets/default.yaml: measured for TL-AC, the others' own defaults
+        domain = dataclasses.replace(domain, presets={**domain.presets, **missing})
     _USER_DOMAINS[domain.name] = domain
     env_id = f"tlac/{domain.name}-v0"
     if env_id in gym.registry:
         del gym.registry[env_id]
-    gym.register(id=env_id, entry_point=domain.make_env)
+    gym.register(id=env_id, entry_point=_gym_factory(domain))
     return domain
+
+
+def _gym_factory(domain: Domain) -> Callable[..., gym.Env]:
+    """``gym.make("tlac/<name>-v0", render_mode=...)`` for a user's domain: the render mode
+    goes to ``make_env`` when it takes one (rl-zoo's video scripts and ``check_env`` ask)."""
+
+    def make(render_mode: str | None = None) -> gym.Env:
+        if render_mode is None:
+            return domain.make_env()
+        parameters = inspect.signature(domain.make_env).parameters
+        if "render_mode" not in parameters and not any(
+            p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values()
+        ):
+            raise ConfigError(
+                f"domain {domain.name!r}: its make_env takes no render_mode; give it a "
+                "render_mode=None parameter (passed to gym.make) to render"
+            )
+        return domain.make_env(render_mode=render_mode)
+
+    return make
 
 
 def domain_names() -> list[str]:

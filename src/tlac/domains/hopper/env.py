@@ -69,17 +69,19 @@ class QuietBulletConnect(gym.Wrapper, gym.utils.RecordConstructorArgs):
             os.close(saved)
 
 
-def make_bullet_env() -> gym.Env:
+def make_bullet_env(render_mode: str | None = None) -> gym.Env:
     """PyBullet Hopper, the paper's environment (1000-step time limit)."""
     import pybullet_envs_gymnasium  # noqa: F401  (registers the *BulletEnv-v0 ids)
 
-    env = gym.make("HopperBulletEnv-v0", max_episode_steps=1000)
+    env = gym.make("HopperBulletEnv-v0", max_episode_steps=1000, render_mode=render_mode)
     return Float32Observation(QuietBulletConnect(env))
 
 
-def make_mujoco_env() -> gym.Env:
+def make_mujoco_env(render_mode: str | None = None) -> gym.Env:
     """Gymnasium MuJoCo Hopper-v5 (1000-step time limit)."""
-    return Float32Observation(gym.make("Hopper-v5", max_episode_steps=1000))
+    return Float32Observation(
+        gym.make("Hopper-v5", max_episode_steps=1000, render_mode=render_mode)
+    )
 
 
 def region_of(obs: np.ndarray) -> np.ndarray:

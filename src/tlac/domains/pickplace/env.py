@@ -90,9 +90,9 @@ class FetchVectorObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
         return obs["observation"].astype(np.float32), float(reward), terminated, truncated, info
 
 
-def make_env(max_episode_steps: int = MAX_EPISODE_STEPS) -> gym.Env:
+def make_env(max_episode_steps: int = MAX_EPISODE_STEPS, render_mode: str | None = None) -> gym.Env:
     """AC-Teach's Pick & Place: fixed goal, dense reward, 100-step episodes."""
-    env = _fixed_goal_env_class()(reward_type="dense")
+    env = _fixed_goal_env_class()(reward_type="dense", render_mode=render_mode)
     env = FetchVectorObservation(env)
     return gym.wrappers.TimeLimit(env, max_episode_steps=max_episode_steps)
 
