@@ -30,6 +30,35 @@ class TeacherError(TlacError):
     """A teacher returned an action that is not a valid member of the action space."""
 
 
+def require_extra(extra: str, what: str, *modules: str) -> None:
+    """ConfigError naming the missing modules and tlac's extra that installs them, unless every
+    module in ``modules`` is importable (``import tlac`` and ``learn`` need none of them).
+
+    >>> require_extra("experiments", "tlac report", "json")
+    >>> require_extra("experiments", "tlac report", "no_such_module_x")
+    Traceback (most recent call last):
+    tlac.errors.ConfigError: tlac report needs no_such_module_x, which is not installed: pip install 'tlac[experiments]'
+    """
+    import importlib.util
+
+    missing = [m for m in modules if importlib.util.find_spec(m) is None]
+    if missing:
+        raise ConfigError(
+            f"{what} needs {', '.join(missing)}, which {'is' if len(missing) == 1 else 'are'} "
+            f"not installed: pip install 'tlac[{extra}]'"
+        )
+
+
+def needs_control_extra(what: str, exc: Exception) -> ConfigError:
+    """The error for a continuous-control domain whose simulator is not installed (Gymnasium's
+    own message names its extra, not tlac's)."""
+    missing = getattr(exc, "name", None)  # an ImportError's module; Gymnasium's names its extra
+    detail = f" ({missing})" if missing else ""
+    return ConfigError(
+        f"{what} needs its simulator, which is not installed{detail}: pip install 'tlac[control]'"
+    )
+
+
 def yaml_problem(exc: Exception) -> str:
     """A YAML parse error as one short line: ``line 3: expected ',' or '}'``."""
     problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]

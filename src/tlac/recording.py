@@ -25,6 +25,8 @@ from typing import Any
 import numpy as np
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, unwrap_vec_normalize
 
+from tlac.errors import require_extra
+
 MONITOR_FILE = "monitor.csv"
 """Written beside episodes.csv in stable-baselines3's Monitor format (a JSON header line, then
 ``r,l,t``: return, length, seconds since the start), so that SB3 / rl-zoo tools
@@ -234,6 +236,7 @@ class Recorder:
                 "progress.csv", ["timestep", "key", "value"]
             )
             if tensorboard:
+                require_extra("tensorboard", "TensorBoard logs", "tensorboard")
                 from torch.utils.tensorboard import SummaryWriter
 
                 self._tb = SummaryWriter(str(self.out_dir / "tb"))

@@ -27,7 +27,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.logger import Logger, configure
 from stable_baselines3.common.vec_env import VecNormalize, unwrap_vec_normalize
 
-from tlac.errors import ConfigError
+from tlac.errors import ConfigError, require_extra
 
 
 class SB3Compat:
@@ -99,6 +99,7 @@ class SB3Compat:
         ``tensorboard_log``); configures that logger on first use, a TensorBoard run in the
         next free ``<tb_log_name>_<n>`` folder (``TLAC_<n>`` by default)."""
         if self.tensorboard_log is not None and not self._tb_configured:
+            require_extra("tensorboard", "tensorboard_log", "tensorboard")
             folder = Path(self.tensorboard_log)
             name = self.tb_log_name
             n = 1 + sum(1 for p in folder.glob(f"{name}_*")) if folder.exists() else 1

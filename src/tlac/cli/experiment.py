@@ -12,10 +12,11 @@ from pathlib import Path
 from typing import Any
 
 from tlac.argtypes import positive_int
-from tlac.errors import TlacError
+from tlac.errors import TlacError, require_extra
 
 
 def _experiment_run(args: argparse.Namespace) -> int:
+    require_extra("experiments", "tlac experiment run", "rich")
     from tlac.experiments.config import load_config
     from tlac.experiments.runner import run_local, run_ray
 
@@ -58,6 +59,7 @@ def _experiment_list(args: argparse.Namespace) -> int:
 
 
 def _report(args: argparse.Namespace) -> int:
+    require_extra("experiments", "tlac report", "pandas", "matplotlib")
     from tlac.experiments.report import write_report
 
     path = write_report(args.dir, paper=args.paper)

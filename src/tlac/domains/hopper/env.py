@@ -21,6 +21,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from tlac.errors import needs_control_extra
+
 
 class Float32Observation(gym.ObservationWrapper, gym.utils.RecordConstructorArgs):
     """Cast observations to float32 (MuJoCo's Hopper-v5 returns float64) so the observation
@@ -71,17 +73,21 @@ class QuietBulletConnect(gym.Wrapper, gym.utils.RecordConstructorArgs):
 
 def make_bullet_env(render_mode: str | None = None) -> gym.Env:
     """PyBullet Hopper, the paper's environment (1000-step time limit)."""
-    import pybullet_envs_gymnasium  # noqa: F401  (registers the *BulletEnv-v0 ids)
-
+    try:
+        import pybullet_envs_gymnasium  # noqa: F401  (registers the *BulletEnv-v0 ids)
+    except ImportError as exc:
+        raise needs_control_extra("hopper-bullet", exc) from None
     env = gym.make("HopperBulletEnv-v0", max_episode_steps=1000, render_mode=render_mode)
     return Float32Observation(QuietBulletConnect(env))
 
 
 def make_mujoco_env(render_mode: str | None = None) -> gym.Env:
     """Gymnasium MuJoCo Hopper-v5 (1000-step time limit)."""
-    return Float32Observation(
-        gym.make("Hopper-v5", max_episode_steps=1000, render_mode=render_mode)
-    )
+    try:
+        env = gym.make("Hopper-v5", max_episode_steps=1000, render_mode=render_mode)
+    except (ImportError, gym.error.DependencyNotInstalled) as exc:
+        raise needs_control_extra("hopper (MuJoCo)", exc) from None
+    return Float32Observation(env)
 
 
 def region_of(obs: np.ndarray) -> np.ndarray:

@@ -26,6 +26,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from tlac.errors import needs_control_extra
+
 GOAL = np.array([1.45, 0.55, 0.425])
 """The fixed target position of the box (on the table)."""
 OBJECT_START_XY = np.array([1.25, 0.55])
@@ -38,7 +40,10 @@ REGION_NAMES: tuple[str, ...] = ("not_holding", "holding")
 
 
 def _fixed_goal_env_class() -> type:
-    from gymnasium_robotics.envs.fetch.pick_and_place import MujocoFetchPickAndPlaceEnv
+    try:
+        from gymnasium_robotics.envs.fetch.pick_and_place import MujocoFetchPickAndPlaceEnv
+    except (ImportError, gym.error.DependencyNotInstalled) as exc:
+        raise needs_control_extra("pickplace (Gymnasium-Robotics, MuJoCo)", exc) from None
 
     class FixedGoalPickAndPlaceEnv(MujocoFetchPickAndPlaceEnv):
         """Fetch PickAndPlace with AC-Teach's fixed goal, narrow box start and gripper jitter."""
