@@ -299,10 +299,10 @@ def test_the_kept_student_is_what_predict_deploys_and_save_keeps(tmp_path):
     m.learn(2000, progress_bar=False)
     m.solo.solo_returns.extend([0.0] * 20)
     m.solo.best_solo, kept = 100.0, m.deployed
-    m.learn(16, progress_bar=False)
+    m.learn(16, reset_num_timesteps=False)
     assert m.deployed is kept  # far below the best window
     m.solo.solo_returns.extend([1000.0] * 20)  # a new best window, whatever ends next
-    m.learn(16, progress_bar=False)
+    m.learn(16, reset_num_timesteps=False)
     assert m.deployed.num_timesteps == m.num_timesteps == 2032
     paper = TLAC("doorkey", teachers=["random"], seed=0, variant="paper")
     paper.learn(64, progress_bar=False)
