@@ -210,7 +210,7 @@ def test_solo_probability_keeps_the_expected_cost_within_budget():
         assert 0.05 <= p <= 1.0
         assert p * (1.0 - c) <= 0.05 + 1e-12
     assert solo_probability(0.5, 0.0) == 0.0
-    assert competence(solo=0.2, assisted=0.2, floor=0.2) == 1.0  # teachers do not help
+    assert competence(solo=0.2, assisted=0.2, floor=0.2) == 0.0  # no evidence yet
     assert competence(solo=-3.0, assisted=1.0, floor=0.0) == 0.0
 
 

@@ -54,10 +54,13 @@ def solo_probability(competence: float, budget: float) -> float:
 
 def competence(solo: float, assisted: float, floor: float) -> float:
     """How close the student alone is to the assisted behaviour, in [0, 1]:
-    ``(solo - floor) / (assisted - floor)``, clipped; 1 when the assistance is no better than
-    the floor (the teachers do not help, so the student may as well act alone)."""
+    ``(solo - floor) / (assisted - floor)``, clipped; 0 while the assisted episodes have shown
+    nothing above the floor: there is no evidence yet of what the student should match, and
+    handing it every episode then would starve the high level of the assisted episodes it
+    learns from (MountainCar, whose teacher the high level finds only after some thousand
+    steps, stayed at -200 with every episode solo)."""
     if assisted <= floor:
-        return 1.0
+        return 0.0
     return float(np.clip((solo - floor) / (assisted - floor), 0.0, 1.0))
 
 
