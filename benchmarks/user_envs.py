@@ -233,9 +233,9 @@ scores and versions)."""
 
 def _weak_algo(env_id: str) -> Any:
     """The SB3 class of the weak suite's agent for ``env_id``."""
-    from stable_baselines3 import PPO, SAC
+    from stable_baselines3 import DQN, PPO, SAC
 
-    return {"ppo": PPO, "sac": SAC}[WEAK_TEACHERS[env_id]["algo"]]
+    return {"ppo": PPO, "sac": SAC, "dqn": DQN}[WEAK_TEACHERS[env_id]["algo"]]
 
 
 def load_weak_teacher(env_id: str) -> Any:
@@ -250,7 +250,9 @@ def train_weak_teacher(env_id: str) -> Path:
 
     torch.set_num_threads(1)
     spec = WEAK_TEACHERS[env_id]
-    model = _weak_algo(env_id)("MlpPolicy", gym.make(env_id), seed=spec["seed"], device="cpu")
+    model = _weak_algo(env_id)(
+        "MlpPolicy", gym.make(env_id), seed=spec["seed"], device="cpu", **spec.get("kwargs", {})
+    )
     model.learn(spec["steps"])
     WEAK_TEACHERS_DIR.mkdir(parents=True, exist_ok=True)
     path = WEAK_TEACHERS_DIR / f"{env_id}.zip"
