@@ -138,7 +138,11 @@ def test_a_users_environment_gets_the_default_preset():
     # the opt-in preset that learns past weak teachers ("Learning past the teachers")
     past = TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: 0], preset="past-teachers")
     assert past.config == TLACConfig(
-        ent_coef_high=0.01, ent_cap_high=0.0, low_level_data="agent", wean_imitation=True
+        ent_coef_high=0.01,
+        ent_cap_high=0.0,
+        low_level_data="agent",
+        wean_imitation=True,
+        solo_budget=0.2,
     )
     # a named domain's preset leaves the high-level bonus to the graduate variant: capped
     doorkey = TLAC("doorkey", teachers=["optimal"]).config
