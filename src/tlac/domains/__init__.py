@@ -99,8 +99,9 @@ def register_gym_ids() -> None:
 def register_domain(domain: Domain, replace: bool = False) -> Domain:
     """Add a domain of your own, usable by name from Python (``TLAC("mine", teachers=[...])``),
     ``tlac train --env`` and experiment configs in this process, and as the Gymnasium id
-    ``tlac/<name>-v0``. An algorithm without a preset in the domain gets ``presets/default.yaml``'s
-    (for TL-AC the one measured on users' environments; for the others their own defaults). In another process (``tlac train``, grid workers) name it
+    ``tlac/<name>-v0``. An algorithm without a preset in the domain gets
+    ``presets/default.yaml``'s (for TL-AC the one measured on users' environments; for the
+    others their own defaults). In another process (``tlac train``, grid workers) name it
     ``module:attribute`` instead: the module is imported and its Domain used (see
     docs/architecture.md, "A domain of your own"). Returns the registered domain.
 
