@@ -53,7 +53,12 @@ def test_a_normalised_teacher_sees_what_its_agent_was_trained_on(normalized_agen
     obs = np.random.default_rng(0).normal(size=(64, 4)).astype(np.float32)
     expected = model.predict(venv.normalize_obs(obs), deterministic=True)[0]
     assert not np.array_equal(expected, model.predict(obs, deterministic=True)[0])  # it matters
-    assert np.array_equal(from_sb3(model, venv).predict(obs), expected)
+    teacher = from_sb3(model, venv)
+    assert np.array_equal(teacher.predict(obs), expected)
+    assert venv.training  # the user's VecNormalize is left as it was (a frozen copy is used)
+    venv.obs_rms.mean = venv.obs_rms.mean + 5.0
+    assert np.array_equal(teacher.predict(obs), expected)
+    venv.obs_rms.mean = venv.obs_rms.mean - 5.0
     # from files, and from an rl-zoo run folder (logs/ppo/CartPole-v1_1/...)
     model.save(tmp_path / "agent.zip")
     venv.save(tmp_path / "stats.pkl")

@@ -29,18 +29,28 @@ SB3_CLASSES = ("a2c", "ddpg", "dqn", "ppo", "sac", "td3")
 
 
 class NormalizedSB3Teacher:
-    """An SB3 model asked on observations normalised with frozen ``VecNormalize`` statistics
-    (deterministic actions by default)."""
+    """An SB3 model asked on observations normalised as its ``VecNormalize`` did, with a frozen
+    copy of those statistics taken when the teacher is made (the ``VecNormalize`` itself is
+    left as it is); deterministic actions by default."""
 
     def __init__(self, model: Any, vec_normalize: Any, name: str, deterministic: bool = True):
         self.model, self.name, self.deterministic = model, name, deterministic
-        self.vec_normalize = vec_normalize
-        self.vec_normalize.training = False  # frozen statistics
-        self.vec_normalize.norm_reward = False
+        rms = vec_normalize.obs_rms
+        if isinstance(rms, dict):
+            raise ConfigError(
+                f"teacher {name!r}: its VecNormalize normalises Dict observations; tlac's "
+                "teachers take Box observations"
+            )
+        self.normalize = bool(vec_normalize.norm_obs)
+        self.mean = np.array(rms.mean, dtype=np.float64)
+        self.std = np.sqrt(np.array(rms.var, dtype=np.float64) + vec_normalize.epsilon)
+        self.clip = float(vec_normalize.clip_obs)
 
     def predict(self, obs: np.ndarray) -> np.ndarray:
-        normalized = self.vec_normalize.normalize_obs(np.asarray(obs, dtype=np.float32))
-        actions, _ = self.model.predict(normalized, deterministic=self.deterministic)
+        obs = np.asarray(obs, dtype=np.float32)
+        if self.normalize:  # VecNormalize.normalize_obs, with the frozen statistics
+            obs = np.clip((obs - self.mean) / self.std, -self.clip, self.clip).astype(np.float32)
+        actions, _ = self.model.predict(obs, deterministic=self.deterministic)
         return np.asarray(actions)
 
 
