@@ -258,9 +258,9 @@ scores and versions)."""
 
 def _weak_algo(env_id: str) -> Any:
     """The SB3 class of the weak suite's agent for ``env_id``."""
-    from stable_baselines3 import DQN, PPO, SAC
+    from tlac.teachers.sb3 import sb3_class
 
-    return {"ppo": PPO, "sac": SAC, "dqn": DQN}[WEAK_TEACHERS[env_id]["algo"]]
+    return sb3_class(WEAK_TEACHERS[env_id]["algo"])
 
 
 def load_weak_teacher(env_id: str) -> Any:

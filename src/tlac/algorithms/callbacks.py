@@ -28,6 +28,7 @@ from stable_baselines3.common.logger import Logger, configure
 from stable_baselines3.common.vec_env import VecNormalize, unwrap_vec_normalize
 
 from tlac.errors import ConfigError, require_extra
+from tlac.recording import EpisodeRecorder
 
 
 class SB3Compat:
@@ -45,8 +46,6 @@ class SB3Compat:
         without the episode recorder tlac wraps around it, so that SB3's callbacks find the
         same wrappers as in their evaluation environments (``EvalCallback`` compares the types
         and syncs a ``VecNormalize`` layer by layer)."""
-        from tlac.recording import EpisodeRecorder
-
         env = self.env
         return env.venv if isinstance(env, EpisodeRecorder) else env
 

@@ -56,12 +56,23 @@ class FunctionTeacher:
 
 
 class SB3Teacher:
-    """A stable-baselines3 model used as a teacher (deterministic actions by default)."""
+    """A stable-baselines3 model used as a teacher (deterministic actions by default).
+    ``normalize_obs``: what the model's ``VecNormalize`` did to its observations, applied to
+    the raw ones before asking it (:func:`tlac.teachers.sb3.from_sb3`), or None."""
 
-    def __init__(self, model: Any, name: str, deterministic: bool = True):
+    def __init__(
+        self,
+        model: Any,
+        name: str,
+        deterministic: bool = True,
+        normalize_obs: Callable[[np.ndarray], np.ndarray] | None = None,
+    ):
         self.model, self.name, self.deterministic = model, name, deterministic
+        self.normalize_obs = normalize_obs
 
     def predict(self, obs: np.ndarray) -> np.ndarray:
+        if self.normalize_obs is not None:
+            obs = self.normalize_obs(obs)
         actions, _ = self.model.predict(obs, deterministic=self.deterministic)
         return np.asarray(actions)
 

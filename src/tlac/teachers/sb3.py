@@ -28,13 +28,11 @@ SB3_CLASSES = ("a2c", "ddpg", "dqn", "ppo", "sac", "td3")
 """The stable-baselines3 algorithms a saved agent can be loaded as (rl-zoo's folder names)."""
 
 
-class NormalizedSB3Teacher:
-    """An SB3 model asked on observations normalised as its ``VecNormalize`` did, with a frozen
-    copy of those statistics taken when the teacher is made (the ``VecNormalize`` itself is
-    left as it is); deterministic actions by default."""
+class FrozenObsNormalization:
+    """``VecNormalize.normalize_obs`` with a frozen copy of its statistics, taken when made
+    (the ``VecNormalize`` itself is left as it is)."""
 
-    def __init__(self, model: Any, vec_normalize: Any, name: str, deterministic: bool = True):
-        self.model, self.name, self.deterministic = model, name, deterministic
+    def __init__(self, vec_normalize: Any, name: str):
         rms = vec_normalize.obs_rms
         if isinstance(rms, dict):
             raise ConfigError(
@@ -46,15 +44,15 @@ class NormalizedSB3Teacher:
         self.std = np.sqrt(np.array(rms.var, dtype=np.float64) + vec_normalize.epsilon)
         self.clip = float(vec_normalize.clip_obs)
 
-    def predict(self, obs: np.ndarray) -> np.ndarray:
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
         obs = np.asarray(obs, dtype=np.float32)
-        if self.normalize:  # VecNormalize.normalize_obs, with the frozen statistics
-            obs = np.clip((obs - self.mean) / self.std, -self.clip, self.clip).astype(np.float32)
-        actions, _ = self.model.predict(obs, deterministic=self.deterministic)
-        return np.asarray(actions)
+        if not self.normalize:
+            return obs
+        return np.clip((obs - self.mean) / self.std, -self.clip, self.clip).astype(np.float32)
 
 
-def _sb3_class(algo: str) -> Any:
+def sb3_class(algo: str) -> Any:
+    """The stable-baselines3 class of ``algo`` (one of :data:`SB3_CLASSES`)."""
     import stable_baselines3
 
     if algo not in SB3_CLASSES:
@@ -109,13 +107,13 @@ def from_sb3(
         path = Path(model)
         if not path.is_file():
             raise ConfigError(f"SB3 model {str(path)!r}: no such file")
-        model = _sb3_class(algo).load(str(path), device="cpu")
+        model = sb3_class(algo).load(str(path), device="cpu")
     label = name or type(model).__name__.lower()
     if vec_normalize is None:
         return SB3Teacher(model, label, deterministic)
     if isinstance(vec_normalize, str | Path):
         vec_normalize = load_vec_normalize(vec_normalize)
-    return NormalizedSB3Teacher(model, vec_normalize, label, deterministic)
+    return SB3Teacher(model, label, deterministic, FrozenObsNormalization(vec_normalize, label))
 
 
 def from_rl_zoo(folder: str | Path, algo: str | None = None, name: str | None = None) -> Any:
