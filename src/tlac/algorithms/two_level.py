@@ -120,6 +120,8 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         )
         config = TLACConfig.from_settings(resolve_settings(env, preset, settings))
         seed = random_seed() if seed is None else check_seed(seed)  # None: as SB3, a random one
+        if torch_threads is not None:  # before the initialisation: its orthogonal matrices (QR)
+            torch.set_num_threads(torch_threads)  # differ with the number of threads
         torch.manual_seed(seed)  # the networks' initialisation
         self._setup(config, seed, env, teachers, recorder)
 
