@@ -8,8 +8,8 @@ advice in the imitation term) and a reference teacher's action there; then a sum
 
     python benchmarks/greedy_loops.py RUN_FOLDER --episodes 30 --reference ppo
 
-RUN_FOLDER holds a TL-AC ``model.pt`` trained on ``doorkey`` (docs/graduation.md, "The greedy
-and the sampled student on these teachers").
+RUN_FOLDER holds a TL-AC ``model.pt`` trained on ``doorkey`` (results/graduation-notes.md, "The
+greedy and the sampled student on these teachers").
 """
 
 from __future__ import annotations

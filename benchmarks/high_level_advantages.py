@@ -4,7 +4,7 @@ Trains TL-AC on DoorKey with Teachers L and R and, for every rollout, records ea
 (left / right), the high level's choice (L, R, agent) and its advantage, raw (GAE) and as the
 update sees it (normalised per 16-row minibatch). Prints, per window of ``--window`` steps and
 per room and choice: the share of the steps, the mean raw advantage and the mean normalised
-advantage. docs/graduation.md reads the output.
+advantage. results/graduation-notes.md ("Why the high level collapses with partial teachers") reads the output.
 
     python benchmarks/high_level_advantages.py --variant paper --steps 16000 --seed 0
 """

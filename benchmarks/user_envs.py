@@ -372,7 +372,7 @@ def train_one(
     returns = evaluate(lambda batch: model.predict(batch, deterministic=True)[0], env_id, episodes)
     result["student_alone"] = float(returns.mean())
     result["student_alone_std"] = float(returns.std())
-    if getattr(model, "deployed", None) is not None:  # keep_best_student: the live weights too
+    if getattr(model, "deployed", None) is not None:  # the kept student: the live weights too
         result["deployed_from_step"] = model.deployed.num_timesteps
         model.deployed = None
         live = evaluate(lambda b: model.predict(b, deterministic=True)[0], env_id, episodes)

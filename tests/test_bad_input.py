@@ -213,7 +213,7 @@ for key in ("learning_rate", "gamma", "gae_lambda", "vf_coef", "max_grad_norm", 
 for key in ("learning_rate", "clip_range", "target_kl", "optimizer_eps"):
     CLI_CASES.append(([*T, "--set", f"{key}=-1"], f"{key} must be > 0"))
     CLI_CASES.append(([*T, "--set", f"{key}=0"], f"{key} must be > 0"))
-for key in ("vf_coef", "max_grad_norm", "ent_coef", "solo_budget", "advice_cost"):
+for key in ("vf_coef", "max_grad_norm", "ent_coef", "solo_budget", "ent_cap_high"):
     CLI_CASES.append(([*T, "--set", f"{key}=-0.5"], f"{key} must be >= 0"))
 for key in ("gamma", "gae_lambda"):
     CLI_CASES.append(([*T, "--set", f"{key}=1.5"], f"{key} must be in [0, 1]"))
@@ -223,12 +223,9 @@ for key in ("n_steps", "batch_size", "n_epochs", "imitation_batch_size", "imitat
 for key in (
     "normalize_advantage",
     "use_sde",
-    "solo_critic",
-    "agent_gate",
-    "imitate_after_stop",
     "wean_imitation",
     "solo_greedy",
-    "keep_best_student",
+    "normalize_obs",
 ):
     for value in ("maybe", "1", "yes_please"):
         CLI_CASES.append(([*T, "--set", f"{key}={value}"], f"{key} must be true or false"))
@@ -238,11 +235,11 @@ for key, value in (
     ("kl_rows", "some"),
     ("obs_encoding", "jpeg"),
     ("low_level_data", "some"),
-    ("trust", "blind"),
-    ("advice_labels", "hearsay"),
+    ("update_rule", "together"),
 ):
     CLI_CASES.append(([*T, "--set", f"{key}={value}"], f"'{value}'"))
 CLI_CASES.append(([*T, "--set", "selector=oracle"], "chosen with --selector"))
+CLI_CASES.append(([*T, "--set", "advice_labels=sampled"], "'advice_labels' was removed"))
 CLI_CASES += [
     ([*T, "--set", "learning_rate={linear: [1.0e-3, .nan]}"], "learning_rate must be"),
     ([*T, "--set", "learning_rate={linear: [1.0e-3]}"], "learning_rate"),
@@ -413,7 +410,7 @@ def _api_cases() -> list[tuple[str, object, str]]:
         ("n_steps 2.5", tlac(n_steps=2.5), "n_steps"),
         ("batch_size > rollout", tlac(batch_size=999), "batch_size 999 exceeds"),
         ("variant", tlac(variant="exact"), "'exact'"),
-        ("trust", tlac(trust="blind"), "'blind'"),
+        ("removed setting", tlac(trust="max"), "'trust' was removed"),
         ("unknown setting", tlac(wings=2), "'wings'"),
         ("normalize_advantage text", tlac(normalize_advantage="yes"), "true or false"),
         ("preset unknown", tlac(preset="nowhere"), "nowhere"),

@@ -64,7 +64,7 @@ def test_frozen_dataclass_with_a_docstring_per_field(cls: type) -> None:
     [
         (lambda: TLACConfig(gamma=2.0), ["TL-AC setting gamma", "in [0, 1]", "got 2.0"]),
         (lambda: TLACConfig(n_steps=0), ["TL-AC setting n_steps", "positive integer", "got 0"]),
-        (lambda: TLACConfig(trust="blind"), ["trust", "'blind'", "soft"]),
+        (lambda: TLACConfig(kl_rows="blind"), ["kl_rows", "'blind'", "agent, all, high"]),
         (lambda: DQNTLQLConfig(tau=0.0), ["dqn-tlql setting tau", "in (0, 1]", "got 0.0"]),
         (lambda: DQNTLQLConfig(learning_starts=-1), ["learning_starts", ">= 0", "got -1"]),
         (lambda: ACTeachConfig(obs_clip=-1.0), ["ac-teach setting obs_clip", "> 0", "got -1.0"]),

@@ -161,16 +161,6 @@ def test_imitation_loss_hand_checked():
     assert float(losses.imitation_loss(nll, trust)) == pytest.approx((0.5 + 1.0 + 3.25) / 3)
 
 
-def test_teacher_trust_rules_hand_checked():
-    # 2 teachers and the agent; logits log(1), log(3), log(4) -> probabilities 1/8, 3/8, 4/8
-    logits = torch.log(torch.tensor([[1.0, 3.0, 4.0]]))
-    soft = losses.teacher_trust(logits, "soft", 2)  # among the teachers only: 1/4, 3/4
-    assert soft.tolist() == [[pytest.approx(0.25), pytest.approx(0.75)]]
-    share = losses.teacher_trust(logits, "share", 2)  # among all choices: the agent keeps 1/2
-    assert share.tolist() == [[pytest.approx(0.125), pytest.approx(0.375)]]
-    assert losses.teacher_trust(logits, "max", 2).tolist() == [[0.0, 1.0]]
-
-
 def test_scaled_squared_error_hand_checked():
     mean = torch.tensor([[0.5, -1.0]])
     targets = torch.tensor([[[1.5, 1.0]]])
@@ -179,33 +169,18 @@ def test_scaled_squared_error_hand_checked():
     assert got.tolist() == [[pytest.approx(1.0625)]]
 
 
-def test_box_imitation_is_a_gaussian_with_imitation_std_half_widths():
-    """Pendulum's box is [-2, 2] (half-width 2): with imitation_std 0.1 a teacher 0.2 away
-    from the low level's mean costs 0.5 * (0.2 / (0.1 * 2))^2 = 0.5 nats."""
+def test_box_imitation_is_a_gaussian_of_a_tenth_of_the_half_width():
+    """Pendulum's box is [-2, 2] (half-width 2): a teacher 0.2 away from the low level's mean
+    costs 0.5 * (0.2 / (0.1 * 2))^2 = 0.5 nats."""
+    from tlac.algorithms.tlac_heads import IMITATION_STD
+
     env = gym.make("Pendulum-v1")
     model = TLAC(env, teachers=[lambda obs: np.array([0.0], np.float32)], seed=0)
-    assert model.config.imitation_std == 0.1
+    assert IMITATION_STD == 0.1
     mean = torch.tensor([[0.5], [-1.0]])
     advice = torch.tensor([[[0.7], [-1.0]]])  # 1 teacher x 2 states x 1 dim
     nll = model._advice_nll(mean, torch.zeros(2, 64), advice)
     assert nll.tolist() == [[pytest.approx(0.5), pytest.approx(0.0)]]
-    wide = TLAC(env, teachers=[lambda obs: np.array([0.0], np.float32)], imitation_std=1.0)
-    assert float(wide._advice_nll(mean, torch.zeros(2, 64), advice)[0, 0]) == pytest.approx(
-        0.5 * (0.2 / 2.0) ** 2
-    )
-    with pytest.raises(ConfigError, match="imitation_std must be > 0"):
-        TLAC(env, imitation_std=0.0)
-
-
-def test_advantage_weighted_nll_hand_checked():
-    lp = torch.log(torch.tensor([0.5, 0.25, 0.5, 0.1]))
-    adv = torch.tensor([0.0, 1.0, 5.0, 10.0])
-    rows = torch.tensor([1.0, 1.0, 0.0, 1.0])
-    # weights exp(0) = 1, exp(1) = e, (row 2 left out), exp(10) capped at 20
-    expected = (math.log(2) + math.e * math.log(4) + 20 * math.log(10)) / 3
-    got = losses.advantage_weighted_nll(lp, adv, rows, beta=1.0)
-    assert float(got) == pytest.approx(expected, rel=1e-6)
-    assert float(losses.advantage_weighted_nll(lp, adv, torch.zeros(4), 1.0)) == 0.0
 
 
 def test_solo_probability_keeps_the_expected_cost_within_budget():
@@ -267,9 +242,9 @@ def _box_model(**settings):
 
 
 def test_the_kept_student_is_what_predict_deploys_and_save_keeps(tmp_path):
-    """keep_best_student: a snapshot acts exactly as the live student did when it was taken,
-    and goes on acting so after the live weights move on; save/load keeps it. With the
-    setting off (or with no solo episodes: the paper variant) predict uses the live weights."""
+    """The kept student: a snapshot acts exactly as the live student did when it was taken,
+    and goes on acting so after the live weights move on; save/load keeps it. With no solo
+    episodes (the paper variant) predict uses the live weights."""
     model = _box_model(normalize_obs=True, obs_encoding="raw")
     model.learn(64, progress_bar=False)
     obs = np.stack([model.observation_space.sample() for _ in range(20)])
@@ -284,18 +259,16 @@ def test_the_kept_student_is_what_predict_deploys_and_save_keeps(tmp_path):
     loaded = TLAC.load(path)
     assert loaded.deployed.num_timesteps == model.deployed.num_timesteps == 64
     assert np.array_equal(loaded.predict(obs, deterministic=True)[0], before)
-    # solo episodes deploy a student by themselves; the setting off, they do not
-    for keep in (True, False):
-        m = TLAC(
-            gym.make("CartPole-v1"),
-            teachers=[lambda obs: int(obs[2] > 0)],
-            seed=0,
-            solo_budget=1.0,  # every episode solo: the window of 20 fills within 2000 steps
-            keep_best_student=keep,
-        )
-        m.learn(2000, progress_bar=False)
-        assert len(m.solo.solo_returns) == m.solo.solo_returns.maxlen
-        assert (m.deployed is not None) == keep
+    # solo episodes deploy a student by themselves
+    m = TLAC(
+        gym.make("CartPole-v1"),
+        teachers=[lambda obs: int(obs[2] > 0)],
+        seed=0,
+        solo_budget=1.0,  # every episode solo: the window of 20 fills within 2000 steps
+    )
+    m.learn(2000, progress_bar=False)
+    assert len(m.solo.solo_returns) == m.solo.solo_returns.maxlen
+    assert m.deployed is not None
     # the end of learn deploys the live student if its latest window qualifies, else keeps
     m = TLAC(
         gym.make("CartPole-v1"), teachers=[lambda obs: int(obs[2] > 0)], seed=0, solo_budget=1.0
@@ -313,28 +286,11 @@ def test_the_kept_student_is_what_predict_deploys_and_save_keeps(tmp_path):
     assert paper.solo is None and paper.deployed is None
 
 
-def test_gate_agent_hands_steps_to_the_agent_only_as_competence_allows():
-    solo = SoloEpisodes(n_envs=4000, budget=0.05, seed=0, min_episodes=1)
-    agent = 2
-    choices = np.full(4000, agent)
-    teacher_logits = np.tile([0.0, np.log(3.0)], (4000, 1))  # teacher 1 preferred 3:1
-    gated = solo.gate_agent(choices, teacher_logits, agent)  # competence 0: never the agent
-    assert (gated != agent).all()
-    assert np.mean(gated == 1) == pytest.approx(0.75, abs=0.03)
-    solo.solo_returns.extend([0.0, 0.5])  # floor 0, solo mean 0.25 ...
-    solo.floor, solo.best_assisted = 0.0, 1.0  # ... of the teachers' 1.0: competence 0.25
-    assert np.mean(solo.gate_agent(choices, teacher_logits, agent) == agent) == pytest.approx(
-        0.25, abs=0.03
-    )
-    solo.active[:2000] = True  # solo rows are left alone (the caller forces the agent there)
-    assert (solo.gate_agent(np.zeros(4000, int), teacher_logits, agent) == 0).all()
-
-
 def test_low_level_learns_from_the_agents_rows_whatever_the_kl_rule():
     """``low_level_data: agent`` means the agent's rows (solo episodes included) train the low
     level's policy gradient; the KL rule only chooses the rows of the stop. Before 2026-11-23
     the loss rows WERE the KL rows, so the graduate variant's ``kl_rows: high`` zeroed them
-    (its student learnt by imitation alone): ``low_level_data: none`` now says so."""
+    (its student learnt by imitation alone)."""
     from tlac.algorithms.tlac_update import row_weights
 
     data = {
@@ -350,7 +306,7 @@ def test_low_level_learns_from_the_agents_rows_whatever_the_kl_rule():
         assert rows.loss[1].tolist() == [1.0, 1.0, 1.0, 0.0]  # the high level chose nothing solo
     rows = row_weights(cfg, data, 2, True, True, has_advice=True)
     assert rows.kl[0].tolist() == [1.0, 1.0, 1.0, 1.0]  # kl_rows all
-    cfg = TLACConfig.from_settings({"low_level_data": "none"})  # imitation alone
+    cfg = TLACConfig.from_settings({})  # silent, with no silent state: imitation alone
     rows = row_weights(cfg, data, 2, True, True, has_advice=True)
     assert rows.loss[0].tolist() == [0.0] * 4
     # no advice yet (the first update) or no teachers at all: the agent's rows, as PPO
@@ -358,11 +314,10 @@ def test_low_level_learns_from_the_agents_rows_whatever_the_kl_rule():
     assert rows.loss[0].tolist() == [0.0, 1.0, 0.0, 1.0]
 
 
-def test_uninformed_rows_weigh_the_agents_policy_gradient_by_how_little_teachers_say():
-    """``low_level_data: silent`` (the graduate default) and ``uninformed``: the agent's rows,
-    each weighted by the silent flag / ``1 - max_k info_k`` of the teachers' advice there;
-    teacher rows stay out. Before any advice, the agent's rows (PPO); without a weight (Box
-    actions, sampled labels), none at all."""
+def test_silent_rows_carry_the_agents_policy_gradient():
+    """``low_level_data: silent`` (the graduate default): the agent's rows in the states where
+    every teacher's advice is uniform; teacher rows stay out. Before any advice, the agent's
+    rows (PPO); with no silent state (Box actions, point-mass teachers), none at all."""
     from tlac.algorithms.tlac_update import row_weights
 
     data = {
@@ -371,100 +326,25 @@ def test_uninformed_rows_weigh_the_agents_policy_gradient_by_how_little_teachers
         "choices": torch.tensor([0, 2, 1, 2]),  # 2 teachers: choice 2 is the agent
         "solo": torch.tensor([0.0, 0.0, 0.0, 1.0]),
     }
-    cfg = TLACConfig.from_settings({})  # the graduate default since 2026-11-24: silent
+    cfg = TLACConfig.from_settings({})
     assert cfg.low_level_data == "silent" and cfg.kl_rows == "high"
     silent = torch.tensor([1.0, 0.0, 1.0, 1.0])
-    rows = row_weights(cfg, data, 2, True, True, has_advice=True, uninformed=silent)
+    rows = row_weights(cfg, data, 2, True, True, has_advice=True, silent=silent)
     assert rows.loss[0].tolist() == [0.0, 0.0, 0.0, 1.0]  # the agent's silent rows
-    cfg = TLACConfig.from_settings({"low_level_data": "uninformed"})
-    uninformed = torch.tensor([1.0, 0.25, 1.0, 0.5])
-    rows = row_weights(cfg, data, 2, True, True, has_advice=True, uninformed=uninformed)
-    assert rows.loss[0].tolist() == [0.0, 0.25, 0.0, 0.5]
     assert row_weights(cfg, data, 2, True, True, True).loss[0].tolist() == [0.0] * 4
     assert row_weights(cfg, data, 2, True, True, False).loss[0].tolist() == [0.0, 1.0, 0.0, 1.0]
 
 
-def test_uninformed_share_hand_checked():
-    """Four actions: (0.5, 0.5, 0, 0) has information 0.5, a point mass 1, uniform 0; the
-    share is 1 minus the most informative teacher's information, per state."""
-    half = torch.tensor([0.5, 0.5, 0.0, 0.0])
-    point, uniform = torch.tensor([1.0, 0.0, 0.0, 0.0]), torch.full((4,), 0.25)
-    dists = torch.stack(
-        [torch.stack([half, uniform, uniform]), torch.stack([uniform, point, uniform])]
-    )  # (K=2, B=3, A=4)
-    assert losses.uninformed_share(dists).tolist() == pytest.approx([0.5, 0.0, 1.0])
-
-
-def test_uninformed_rows_change_nothing_with_point_mass_teachers():
-    """Plain-function teachers give point masses: every state is informed, so
-    ``low_level_data: uninformed`` and ``silent`` (the default) train bit for bit as ``none``
-    (the user suite's figures, made with none, stand for them). The first model of a process
-    may differ in the last bits (building it switches torch to one thread): none first and
-    again last."""
-    params = []
-    for data in ("none", "uninformed", "silent", "none"):
-        teachers = [lambda obs: int(obs[2] > 0), lambda obs: 0]
-        model = TLAC(gym.make("CartPole-v1"), teachers=teachers, seed=3, low_level_data=data)
-        model.learn(640)
-        params.append(torch.cat([p.detach().flatten() for p in model.net.parameters()]))
-    assert torch.equal(params[1], params[3]) and torch.equal(params[2], params[3])
-
-
-def test_silent_rows_change_nothing_where_a_teacher_always_speaks():
-    """A good and a noisy DoorKey teacher are never uniform, so no state is silent and
-    ``low_level_data: silent`` trains bit for bit as ``none`` (their figures stand for both);
-    with a random teacher alone every state is silent (and wholly uninformed), and the
-    student's own rows carry the policy gradient that imitation alone leaves at nothing.
-    Self-imitation stores only silent rows, so it too changes nothing with good + noisy."""
-    params = {}
-    for teachers, settings in (
-        (["good", "noisy"], ("none", "silent", "silent+sil", "none")),
-        (["random"], ("none", "silent", "uninformed", "none")),
-    ):
-        for data in settings:
-            model = TLAC(
-                "doorkey",
-                teachers=teachers,
-                seed=1,
-                low_level_data=data.split("+")[0],
-                solo_budget=1.0,
-                self_imitation=1.0 if data.endswith("+sil") else 0.0,
-            )
-            model.learn(992 if data.endswith("+sil") else 320)  # sil: episodes end, rows could land
-            if data.endswith("+sil"):
-                assert len(model.self_imitation_buffer) == 0
-                continue
-            params[teachers[0], data] = torch.cat(
-                [p.detach().flatten() for p in model.net.parameters()]
-            )
-    assert torch.equal(params["good", "silent"], params["good", "none"])
-    assert not torch.equal(params["random", "silent"], params["random", "none"])
-    assert not torch.equal(params["random", "uninformed"], params["random", "none"])
-
-
-def test_self_imitation_replays_silent_rows_with_their_returns_and_trains_on_them():
-    """With a random teacher every state is silent: the student's rows of each ended episode
-    land in the replay with their discounted returns (a truncated DoorKey episode: the
-    bootstrap gamma * V(last state) discounted back), and the imitation of those that beat the
-    critic moves the low level away from the run without it (the test can fail)."""
-    params = {}
-    for coef in (0.0, 1.0):
-        model = TLAC("doorkey", teachers=["random"], seed=2, solo_budget=1.0, self_imitation=coef)
-        model.learn(1200, progress_bar=False)
-        params[coef] = torch.cat([p.detach().flatten() for p in model.net.parameters()])
-    buf = model.self_imitation_buffer
-    assert buf is not None and len(buf) >= 2 * 400  # two ended episodes (490 steps at most)
-    rets = buf.returns[: len(buf)]
-    # stored from the episode's last step back: no reward before the end, so each earlier
-    # step's return is the later one discounted by gamma
-    assert torch.allclose(rets[1:100], model.config.gamma * rets[:99])
-    assert not torch.equal(params[0.0], params[1.0])
-    with pytest.raises(ConfigError, match="needs low_level_data 'silent', got 'none'"):
-        TLAC("doorkey", teachers=["random"], low_level_data="none", self_imitation=1.0)
-    with pytest.raises(ConfigError, match="variant 'paper'"):
-        TLAC("doorkey", teachers=["random"], variant="paper", self_imitation=1.0)
-    with pytest.raises(ConfigError, match="needs self_imitation > 0"):
-        TLAC("doorkey", teachers=["random"], self_imitation_value=0.5)
+def test_silent_states_are_where_no_teacher_speaks():
+    """A good and a noisy DoorKey teacher are never uniform, so no state the student met is
+    silent; with a random teacher alone every state is, and the student's own rows carry a
+    policy gradient there (the test can fail: silent_states reads the stored advice)."""
+    for teachers, expected in ((["good", "noisy"], [0.0]), (["random"], [1.0])):
+        model = TLAC("doorkey", teachers=teachers, seed=1)
+        model.learn(320)
+        buf = model.advice_buffer
+        advice = buf.advice[: len(buf)].transpose(0, 1)  # (teachers, states, actions)
+        assert losses.silent_states(advice).unique().tolist() == expected
 
 
 def test_solo_greedy_episodes_act_as_the_deployed_student():
@@ -551,16 +431,6 @@ def test_graduate_imitation_moves_the_student_towards_its_teacher():
     assert likelihood[1.0] > likelihood[0.0] + 0.2
 
 
-def test_imitate_after_stop_keeps_imitating_when_the_kl_stop_ends_updates():
-    """A target KL so small that every update stops after its first step (the first step of an
-    update is never stopped: its ratio is 1): with imitate_after_stop the remaining four steps
-    of each update still imitate, so the student moves further towards its teacher."""
-    tiny = {"kl_rows": "all", "target_kl": 1e-9}
-    stopped = _teacher_likelihood(tiny, steps=4000)
-    imitating = _teacher_likelihood({**tiny, "imitate_after_stop": True}, steps=4000)
-    assert imitating > stopped + 0.05, (imitating, stopped)  # measured: 0.285 vs 0.188
-
-
 @pytest.mark.slow
 def test_doorkey_student_alone_succeeds():
     """The default TL-AC, 1 optimal + 2 random teachers, 1e5 steps (the demo): the student
@@ -590,10 +460,10 @@ def test_capped_high_level_entropy_hand_checked():
 
 
 def test_distribution_labels_hand_checked():
-    """advice_labels distribution: the imitation term is the cross-entropy from each teacher's
-    distribution to pi_low; a point mass gives exactly the sampled label's -log pi_low(a|s)."""
+    """The imitation term is the cross-entropy from each teacher's distribution to pi_low; a
+    point mass gives exactly -log pi_low(a|s) of its action."""
     env = gym.make("CartPole-v1")
-    model = TLAC(env, teachers=[lambda obs: 0], seed=0, advice_labels="distribution")
+    model = TLAC(env, teachers=[lambda obs: 0], seed=0)
     logits = torch.log(torch.tensor([[0.25, 0.75]]))  # pi_low = (1/4, 3/4)
     dists = torch.tensor([[[0.5, 0.5]], [[0.0, 1.0]]])  # 2 teachers x 1 state x 2 actions
     nll = model._advice_nll(logits, torch.zeros(1, 64), dists)
@@ -601,15 +471,8 @@ def test_distribution_labels_hand_checked():
         [pytest.approx(-(0.5 * math.log(0.25) + 0.5 * math.log(0.75)))],
         [pytest.approx(-math.log(0.75))],
     ]
-    sampled = model._advice_nll(logits, torch.zeros(1, 64), torch.tensor([[1]]))
-    assert float(sampled[0, 0]) == float(nll[1, 0])
     assert model.advice_buffer.advice.shape[1:] == (1, 2)
     assert model.advice_buffer.advice.dtype == torch.float32
-    with pytest.raises(
-        ConfigError,
-        match=r"unknown advice_labels .soft.; expected one of: sampled, distribution, informative, filtered",
-    ):
-        TLAC(env, advice_labels="soft")
 
 
 def test_teachers_tell_the_distribution_they_sample_from():
@@ -655,45 +518,27 @@ def test_informative_trust_hand_checked():
     assert got.tolist() == [[pytest.approx(0.5), pytest.approx(0.5), pytest.approx(0.0)]]
     share = losses.informative_trust(trust * 0.5, dists)  # the agent's share is kept out
     assert share.sum().item() == pytest.approx(0.5)
-    # filtered (keep_total=False): the weighted trust as it is, the uniform teacher's 0.25 lost
-    kept = losses.informative_trust(trust, dists, keep_total=False)
-    assert kept.tolist() == [[pytest.approx(0.25), pytest.approx(0.25), pytest.approx(0.0)]]
 
 
-def test_informative_labels_change_nothing_with_point_mass_teachers():
-    """A user's plain functions give one action, a point mass: with them the informative
-    labels weigh every teacher fully and the cross-entropy is -log pi_low(a|s), so training
-    is bit-for-bit the sampled labels' (the user suite's figures stand for both). Sampled
-    first and again last: the first model of a process may differ in the last bits, as
-    building it switches torch to one thread."""
-    params = []
-    for labels in ("sampled", "informative", "sampled"):
-        env = gym.make("CartPole-v1")
-        teachers = [lambda obs: int(obs[2] > 0), lambda obs: 0]
-        model = TLAC(env, teachers=teachers, seed=3, advice_labels=labels, n_steps=32)
-        model.learn(640)
-        params.append(torch.cat([p.detach().flatten() for p in model.net.parameters()]))
-    assert torch.equal(params[1], params[2])
-
-
-def test_informative_labels_leave_box_actions_alone():
-    """advice_labels is about discrete actions: on a Box space the advice is the teachers'
-    actions, not distributions, and informative must not read them as such."""
+def test_box_imitation_weighs_the_teachers_actions_by_the_high_levels_trust():
+    """On a Box space the advice is the teachers' actions, not distributions: the imitation
+    term is their scaled squared errors weighted by the softmax of the teachers' logits (the
+    agent's logit left out), with no information re-weighting."""
     high = torch.tensor([[0.3, -0.2, 0.1]])  # 2 teachers + agent
     mean, latent = torch.tensor([[0.5, 0.0, -0.5]]), torch.zeros(1, 64)
     advice = torch.tensor([[[0.7, 0.2, 0.1]], [[-0.9, 0.5, 0.0]]])  # 2 teachers x 1 state x 3
-    terms = []
-    for labels in ("sampled", "informative"):
-        teachers = [lambda obs: np.zeros(3, np.float32)] * 2
-        model = TLAC(gym.make("Hopper-v5"), teachers=teachers, seed=0, advice_labels=labels)
-        terms.append(float(model._imitation_term(high, mean, latent, advice)))
-    assert terms[0] == terms[1]
+    teachers = [lambda obs: np.zeros(3, np.float32)] * 2
+    model = TLAC(gym.make("Hopper-v5"), teachers=teachers, seed=0)
+    got = float(model._imitation_term(high, mean, latent, advice))
+    trust = torch.softmax(torch.tensor([0.3, -0.2]), 0)
+    errors = losses.scaled_squared_error(mean, advice, model._imitation_scale)[:, 0]
+    assert got == pytest.approx(float((trust * errors).sum()))
 
 
-def test_filtered_labels_imitate_less_where_a_trusted_teacher_says_nothing():
+def test_a_random_teachers_trust_moves_to_the_teacher_that_knows():
     """The imitation term on one DoorKey state where the high level trusts an optimal-like
-    teacher (a point mass) and a random one (uniform) equally: informative moves the random
-    teacher's trust to the point mass (twice its -log pi), filtered drops it (once)."""
+    teacher (a point mass) and a random one (uniform) equally: the random teacher's trust moves
+    to the point mass, so the term is the point's whole -log pi."""
     model = TLAC("doorkey", teachers=["optimal", "random"], seed=0)
     n_actions = model.net.out_dims[1]
     point = torch.zeros(n_actions)
@@ -702,9 +547,19 @@ def test_filtered_labels_imitate_less_where_a_trusted_teacher_says_nothing():
     high = torch.tensor([[0.0, 0.0, -30.0]])  # optimal, random equal; the agent ~0
     low = torch.zeros(1, n_actions)  # pi_low uniform: -log pi(a) = log n for every action
     latent = torch.zeros(1, 64)
-    terms = {}
-    for labels in ("informative", "filtered"):
-        model.config = dataclasses.replace(model.config, advice_labels=labels)
-        terms[labels] = float(model._imitation_term(high, low, latent, advice))
-    assert terms["informative"] == pytest.approx(math.log(n_actions))  # trust 1 on the point
-    assert terms["filtered"] == pytest.approx(0.5 * math.log(n_actions))  # its own 0.5 only
+    term = float(model._imitation_term(high, low, latent, advice))
+    assert term == pytest.approx(math.log(n_actions))  # trust 1 on the point mass
+
+
+def test_removed_settings_are_refused_naming_what_replaced_them():
+    from tlac.algorithms.tlac_config import REMOVED_SETTINGS
+
+    assert len(dataclasses.fields(TLACConfig)) <= 40
+    for name in REMOVED_SETTINGS:
+        assert name not in {f.name for f in dataclasses.fields(TLACConfig)}
+    with pytest.raises(ConfigError, match="'advice_labels' was removed: discrete advice is always"):
+        TLAC("doorkey", teachers=["random"], advice_labels="sampled")
+    with pytest.raises(ConfigError, match="'keep_best_student' was removed: with solo episodes"):
+        TLACConfig.from_settings({"keep_best_student": False})
+    with pytest.raises(ConfigError, match="low_level_data 'none' was removed: use 'silent'"):
+        TLAC("doorkey", teachers=["random"], low_level_data="none")

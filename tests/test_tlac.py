@@ -369,14 +369,14 @@ def _training_digest(model) -> str:
         ("doorkey", ["optimal", "random", "random"], {}),
         ("doorkey", ["L", "R"], {"selector": "ucb1"}),
         ("pendulum", None, {"use_sde": True, "n_steps": 16, "batch_size": 16}),
-        # every state silent: the self-imitation replay and the episodes waiting for their
-        # returns are part of the training state
-        ("doorkey", ["random"], {"self_imitation": 1.0, "solo_budget": 1.0}),
+        # every state silent, every episode solo: the kept student and the solo statistics
+        # are part of the training state
+        ("doorkey", ["random"], {"solo_budget": 1.0}),
     ],
 )
 def test_learn_n_save_load_learn_n_equals_learn_2n(tmp_path, env, teachers, settings):
     """Exact resume: the checkpoint's training state (generators, teachers' generators, advice
-    buffer, self-imitation replay, solo statistics, the episodes in progress) makes the continuation byte-identical."""
+    buffer, solo statistics, the episodes in progress) makes the continuation byte-identical."""
 
     def make():
         if env == "pendulum":

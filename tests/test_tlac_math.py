@@ -199,12 +199,12 @@ def test_selectors_share_one_protocol_and_registry() -> None:
 
     assert SELECTOR_NAMES == SELECTORS == ("learned", "random", "ucb1")
     logits = np.array([[0.0, 5.0, 0.0], [3.0, 0.0, 0.0]])
-    learned = make_selector("learned", 3, 1, 0, np.random.default_rng(0), 1.0)
+    learned = make_selector("learned", 3, 1, 0, np.random.default_rng(0))
     assert learned.evaluation_choices(logits, deterministic=True).tolist() == [1, 0]
-    ucb = make_selector("ucb1", 3, 1, 0, np.random.default_rng(0), 1.0)
+    ucb = make_selector("ucb1", 3, 1, 0, np.random.default_rng(0))
     ucb.sums[:], ucb.counts[:] = [1.0, 6.0, 2.0], [1, 2, 1]  # means 1, 3, 2
     assert ucb.evaluation_choices(logits, deterministic=False).tolist() == [1, 1]
-    rand = make_selector("random", 3, 1, 0, np.random.default_rng(0), 1.0)
+    rand = make_selector("random", 3, 1, 0, np.random.default_rng(0))
     assert set(rand.evaluation_choices(np.zeros((200, 3)), deterministic=True)) == {0, 1, 2}
     assert [s.trains_high_level for s in (learned, rand, ucb)] == [True, False, False]
 

@@ -500,7 +500,7 @@ def _train_locked(
         "platform": platform_record(),
     }
     kept = getattr(model, "deployed", None)
-    if kept is not None:  # keep_best_student: the step whose student predict deploys
+    if kept is not None:  # the kept student: the step whose student predict deploys
         result["student_kept_from_step"] = int(kept.num_timesteps)
     if deployed is not None:  # keep_best: the deployed model and its fresh evaluation
         result.update(deployed, last_eval_mean=eval_rows[-1][1], last_eval_std=eval_rows[-1][2])

@@ -138,18 +138,16 @@ class UCB1Selector:
 
 
 SELECTORS: dict[str, Callable[..., Selector]] = {
-    "learned": lambda n_choices, n_envs, seed, rng, ucb_c: LearnedSelector(rng),
-    "random": lambda n_choices, n_envs, seed, rng, ucb_c: RandomSelector(n_choices, seed),
-    "ucb1": lambda n_choices, n_envs, seed, rng, ucb_c: UCB1Selector(
-        n_choices, n_envs, seed, ucb_c
-    ),
+    "learned": lambda n_choices, n_envs, seed, rng: LearnedSelector(rng),
+    "random": lambda n_choices, n_envs, seed, rng: RandomSelector(n_choices, seed),
+    "ucb1": lambda n_choices, n_envs, seed, rng: UCB1Selector(n_choices, n_envs, seed),
 }
-"""The one list of high levels: name -> factory ``(n_choices, n_envs, seed, rng, ucb_c)``."""
+"""The one list of high levels: name -> factory ``(n_choices, n_envs, seed, rng)``."""
 SELECTOR_NAMES = tuple(SELECTORS)
 
 
 def make_selector(
-    name: str, n_choices: int, n_envs: int, seed: int, rng: np.random.Generator, ucb_c: float
+    name: str, n_choices: int, n_envs: int, seed: int, rng: np.random.Generator
 ) -> Selector:
     """The named selector; ``rng`` is TL-AC's acting generator (the learned one samples from it)."""
-    return SELECTORS[name](n_choices, n_envs, seed, rng, ucb_c)
+    return SELECTORS[name](n_choices, n_envs, seed, rng)

@@ -17,12 +17,6 @@ weak, and control passes to it entirely once it is as good as its teachers. ``R_
 best mean of recent assisted returns seen so far (what the teachers have shown they reach), not
 the latest: if assisted episodes get worse, that must not read as a competent student.
 
-The same competence gates the agent INSIDE assisted episodes: where the high level picks the
-agent, the agent acts with probability ``competence``, else a teacher drawn from the high
-level's preference among the teachers. Without this gate the high level can hand control to an
-incompetent student on noisy advantages (with imperfect or partial teachers it did, and the
-training return collapsed; docs/graduation.md).
-
 >>> solo_probability(0.0, 0.05), round(solo_probability(0.8, 0.05), 9), solo_probability(0.99, 0.05)
 (0.05, 0.25, 1.0)
 >>> competence(solo=0.5, assisted=0.9, floor=0.1)
@@ -92,7 +86,7 @@ def worth_deploying(
 
 class StudentSnapshot:
     """The student as it was at one moment: a frozen copy of the low level's layers, its Box
-    log-std and the observation normaliser's statistics. With ``keep_best_student`` the model
+    log-std and the observation normaliser's statistics. With solo episodes the model
     deploys (``predict``) the last student whose solo episodes were about as good as its best
     ones (:func:`worth_deploying`), not whatever the last update left: training goes on from
     the live weights, but a late collapse of the live student (measured on CartPole and Acrobot,
@@ -206,20 +200,6 @@ class SoloEpisodes:
         deploy, self.best_solo = worth_deploying(self.solo_returns, self.best_solo, n_windows)
         return deploy
 
-    def gate_agent(self, choices: np.ndarray, teacher_logits: np.ndarray, agent: int) -> np.ndarray:
-        """Where the high level chose the ``agent`` in an assisted episode, keep it with
-        probability ``competence``; otherwise substitute a teacher sampled from
-        ``softmax(teacher_logits)`` (the high level's logits of the teachers only)."""
-        rows = np.flatnonzero((choices == agent) & ~self.active)
-        if len(rows) == 0:
-            return choices
-        demote = rows[self.rng.random(len(rows)) >= self.competence]
-        if len(demote):
-            choices = choices.copy()
-            gumbel = self.rng.gumbel(size=(len(demote), teacher_logits.shape[1]))
-            choices[demote] = np.argmax(teacher_logits[demote] + gumbel, axis=1)
-        return choices
-
 
 class AdviceBuffer:
     """The aggregated data set of DAgger (Ross et al. 2011): every state the student met in
@@ -266,98 +246,3 @@ class AdviceBuffer:
         (n_teachers, n, ...))``."""
         idx = torch.randint(self.size, (n,), generator=generator)
         return self.obs[idx], self.advice[idx].transpose(0, 1)
-
-
-class SelfImitationBuffer:
-    """Self-imitation (Oh et al. 2018) where no teacher knows the way: the student's own
-    actions in the states where every teacher is silent, each with the discounted return that
-    followed it in its episode (Monte-Carlo, known once the episode ends), in a ring of
-    ``capacity`` rows. The update imitates the replayed actions whose return beat the critic's
-    value of their state (a 0/1 filter, as the Q-filter of Nair et al. 2018), which sharpens
-    the student onto what worked: the policy gradient alone, whose signal there is one wasted
-    step (~1% of the value), left the greedy student looping (docs/graduation.md).
-
-    Rows wait per environment until their episode ends (``add``, one rollout at a time);
-    only the rows marked ``keep`` are stored, the others only carry rewards.
-
-    >>> buf = SelfImitationBuffer(capacity=4, obs_dim=1, n_envs=1, gamma=0.5)
-    >>> obs = torch.arange(3.0).view(3, 1, 1)              # (T, E, obs_dim)
-    >>> buf.add(obs, torch.tensor([[0], [1], [2]]), torch.tensor([[0.0], [0.0], [1.0]]),
-    ...         torch.tensor([[0.0], [0.0], [1.0]]), torch.tensor([[1.0], [0.0], [1.0]]))
-    >>> len(buf), buf.actions[:2].tolist(), buf.returns[:2].tolist()   # last row first; 0.5 ** 2 * 1
-    (2, [2, 0], [1.0, 0.25])
-    """
-
-    def __init__(self, capacity: int, obs_dim: int, n_envs: int, gamma: float):
-        self.obs = torch.zeros(capacity, obs_dim)
-        self.actions = torch.zeros(capacity, dtype=torch.int64)
-        self.returns = torch.zeros(capacity)
-        self.capacity, self.gamma = capacity, gamma
-        self.size = 0
-        self.next = 0
-        # per environment, the rows of its unfinished episode: [obs or None, action, reward]
-        self.pending: list[list[list]] = [[] for _ in range(n_envs)]
-
-    def __len__(self) -> int:
-        return self.size
-
-    def add(
-        self,
-        obs: torch.Tensor,
-        actions: torch.Tensor,
-        rewards: torch.Tensor,
-        dones: torch.Tensor,
-        keep: torch.Tensor,
-    ) -> None:
-        """One rollout, time-major: ``obs`` ``(T, E, obs_dim)``, the others ``(T, E)``."""
-        for e, rows in enumerate(self.pending):
-            for t in range(obs.shape[0]):
-                kept = bool(keep[t, e] > 0)
-                rows.append(
-                    [obs[t, e].clone() if kept else None, int(actions[t, e]), float(rewards[t, e])]
-                )
-                if dones[t, e] > 0:
-                    self._finish(rows)
-                    rows.clear()
-
-    def _finish(self, rows: list[list]) -> None:
-        """Store the kept rows of an ended episode with their discounted returns-to-go."""
-        ret = 0.0
-        for obs, action, reward in reversed(rows):
-            ret = reward + self.gamma * ret
-            if obs is not None:
-                self.obs[self.next], self.actions[self.next], self.returns[self.next] = (
-                    obs,
-                    action,
-                    ret,
-                )
-                self.next = (self.next + 1) % self.capacity
-                self.size = min(self.size + 1, self.capacity)
-
-    def sample(
-        self, n: int, generator: torch.Generator
-    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        """``n`` rows drawn uniformly with replacement: (obs, actions, returns)."""
-        idx = torch.randint(self.size, (n,), generator=generator)
-        return self.obs[idx], self.actions[idx], self.returns[idx]
-
-    def state(self) -> dict[str, Any]:
-        """Plain data and tensors, for a checkpoint."""
-        return {
-            "obs": self.obs[: self.size].clone(),
-            "actions": self.actions[: self.size].clone(),
-            "returns": self.returns[: self.size].clone(),
-            "next": self.next,
-            "size": self.size,
-            "pending": [[list(r) for r in rows] for rows in self.pending],
-        }
-
-    def restore(self, state: dict[str, Any]) -> None:
-        size = state["size"]
-        self.obs[:size], self.actions[:size], self.returns[:size] = (
-            state["obs"],
-            state["actions"],
-            state["returns"],
-        )
-        self.next, self.size = state["next"], size
-        self.pending = [[list(r) for r in rows] for rows in state["pending"]]

@@ -95,21 +95,6 @@ def explained_variance(values: torch.Tensor, returns: torch.Tensor) -> float:
     return float("nan") if var == 0 else float(1.0 - torch.var(returns - values) / var)
 
 
-def advantage_weighted_nll(
-    log_prob: torch.Tensor, advantages: torch.Tensor, rows: torch.Tensor, beta: float
-) -> torch.Tensor:
-    """AWR's imitation loss (Peng et al. 2019) on the selected ``rows`` (0/1): the mean of
-    ``-exp(min(A / beta, log 20)) * log_prob`` there (weights without gradient), 0 without
-    rows.
-
-    >>> lp = torch.log(torch.tensor([0.5, 0.25, 0.5]))
-    >>> round(float(advantage_weighted_nll(lp, torch.tensor([0.0, 1.0, 5.0]), torch.tensor([1.0, 1.0, 0.0]), 1.0)), 4)
-    2.2307
-    """
-    weights = torch.exp(torch.clamp(advantages / beta, max=math.log(20.0))).detach()
-    return -(weights * log_prob * rows).sum() / rows.sum().clamp(min=1.0)
-
-
 def _weighted_mean(x: torch.Tensor, weights: torch.Tensor | None) -> torch.Tensor:
     """Mean over the last axis, over the rows' weighted samples (0 where a row has none)."""
     if weights is None:
@@ -117,37 +102,7 @@ def _weighted_mean(x: torch.Tensor, weights: torch.Tensor | None) -> torch.Tenso
     return (x * weights).sum(dim=1) / weights.sum(dim=1).clamp(min=1.0)
 
 
-TRUST_RULES = ("soft", "max", "share")
-
-
-def teacher_trust(high_logits: torch.Tensor, rule: str, n_teachers: int) -> torch.Tensor:
-    """``(B, K)`` weights of the ``K = n_teachers`` teachers in each state from the high level's
-    logits ``(B, K + 1)`` (the teachers', then the agent's): ``soft`` = the softmax of the
-    teachers' logits alone, ``max`` = 1 for the preferred teacher, 0 elsewhere, ``share`` = the
-    teachers' probabilities among ALL choices, so that where the high level prefers the agent
-    the imitation weighs little (the weights sum to 1 - pi_high(agent|s)).
-
-    >>> logits = torch.tensor([[0.0, 1.0, 0.0], [2.0, 2.0, 0.0]])
-    >>> teacher_trust(logits, "max", 2).tolist()   # a tie goes to the first teacher
-    [[0.0, 1.0], [1.0, 0.0]]
-    >>> [round(v, 3) for v in teacher_trust(logits, "soft", 2)[0].tolist()]
-    [0.269, 0.731]
-    >>> [round(v, 3) for v in teacher_trust(logits, "share", 2)[0].tolist()]  # e / (2 + e)
-    [0.212, 0.576]
-    """
-    if rule == "share":
-        return torch.softmax(high_logits, -1)[:, :n_teachers]
-    teacher_logits = high_logits[:, :n_teachers]
-    if rule == "max":
-        return torch.nn.functional.one_hot(teacher_logits.argmax(-1), teacher_logits.shape[-1]).to(
-            teacher_logits.dtype
-        )
-    return torch.softmax(teacher_logits, -1)
-
-
-def informative_trust(
-    trust: torch.Tensor, distributions: torch.Tensor, keep_total: bool = True
-) -> torch.Tensor:
+def informative_trust(trust: torch.Tensor, distributions: torch.Tensor) -> torch.Tensor:
     """``(B, K)``: ``trust`` re-weighted by how much each teacher's advice says in each state.
 
     ``distributions`` ``(K, B, A)``: each teacher's distribution over the ``A`` actions. A
@@ -165,8 +120,6 @@ def informative_trust(
     if distributions.shape[-1] < 2:
         return trust
     weighted = trust * advice_information(distributions).T  # (B, K)
-    if not keep_total:
-        return weighted
     total = weighted.sum(1, keepdim=True)
     scale = torch.where(total > 0, trust.sum(1, keepdim=True) / total.clamp_min(1e-12), 0.0)
     return weighted * scale
@@ -188,20 +141,6 @@ def advice_information(distributions: torch.Tensor) -> torch.Tensor:
     return (1.0 - entropy / math.log(n_actions)).clamp_min(0.0)
 
 
-def uninformed_share(distributions: torch.Tensor) -> torch.Tensor:
-    """``(B,)``: how little even the most informative teacher says in each state, ``1 - max_k
-    info_k(s)`` (:func:`advice_information`): 1 where every teacher is uniform (nobody knows
-    the way: the student must learn it from its own returns), 0 where one teacher gives a
-    point mass. ``low_level_data: uninformed`` weighs the student's policy gradient by it.
-
-    >>> uniform, point = torch.full((3,), 1 / 3), torch.tensor([0.0, 1.0, 0.0])
-    >>> dists = torch.stack([torch.stack([point, uniform]), torch.stack([uniform, uniform])])
-    >>> uninformed_share(dists).tolist()   # state 0: teacher 0 knows; state 1: nobody does
-    [0.0, 1.0]
-    """
-    return (1.0 - advice_information(distributions).max(0).values).clamp_min(0.0)
-
-
 SILENT_INFORMATION = 1e-3
 """A state's advice is silent where no teacher's information exceeds this (``1 - H / log A``):
 every teacher is uniform there, as a random teacher everywhere or a partial one outside its
@@ -219,21 +158,6 @@ def silent_states(distributions: torch.Tensor) -> torch.Tensor:
     [0.0, 1.0]
     """
     return (advice_information(distributions).max(0).values <= SILENT_INFORMATION).float()
-
-
-def self_imitation_loss(
-    log_probs: torch.Tensor, returns: torch.Tensor, values: torch.Tensor
-) -> torch.Tensor:
-    """Self-imitation (Oh et al. 2018, Eq. 1's policy term) with a 0/1 filter for its clipped
-    advantage ``max(R - V(s), 0)``: the negative log-likelihood of the student's own replayed
-    actions whose Monte-Carlo return ``R`` beat the critic's value of their state (the
-    Q-filter of Nair et al. 2018), averaged over the minibatch.
-
-    >>> lp = torch.log(torch.tensor([0.5, 0.25]))
-    >>> round(float(self_imitation_loss(lp, torch.tensor([1.0, 0.2]), torch.tensor([0.5, 0.5]))), 4)
-    0.3466
-    """
-    return -(log_probs * (returns > values).float()).mean()
 
 
 def imitation_loss(neg_log_likelihoods: torch.Tensor, trust: torch.Tensor) -> torch.Tensor:

@@ -59,7 +59,13 @@ class Normalizer:
     """Observation and/or reward normalisation for ``n_envs`` parallel environments."""
 
     def __init__(
-        self, obs_dim: int, n_envs: int, gamma: float, obs: bool, reward: bool, clip: float
+        self,
+        obs_dim: int,
+        n_envs: int,
+        gamma: float,
+        obs: bool,
+        reward: bool,
+        clip: float = 10.0,
     ):
         self.normalize_obs, self.normalize_reward, self.clip = obs, reward, float(clip)
         self.gamma = float(gamma)

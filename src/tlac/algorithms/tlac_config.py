@@ -11,7 +11,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from tlac.algorithms import losses
 from tlac.algorithms.encoding import ENCODINGS
 from tlac.domains import domain_names, get_domain
 from tlac.errors import ConfigError, UnknownNameError
@@ -24,11 +23,9 @@ Schedule = float | dict
 VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
     "graduate": {
         "distill_coef": 1.0,
-        "advice_cost": 0.0,
         # the low level learns from the imitation term, and from its own returns only in the
-        # states where every teacher is silent (uniform): since 2026-11-24 (afternoon); before,
-        # imitation alone ("none"), which trains bit for bit the same wherever a teacher speaks
-        # ("agent" was measured worse; docs/graduation.md, "Where no teacher knows the way")
+        # states where every teacher is silent (uniform) ("agent" was measured worse on
+        # DoorKey; docs/graduation.md)
         "low_level_data": "silent",
         "solo_budget": 0.05,
         "kl_rows": "high",
@@ -41,7 +38,6 @@ VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
     },
     "paper": {
         "distill_coef": 0.0,
-        "advice_cost": 0.0,
         "low_level_data": "all",
         "solo_budget": 0.0,
         # the low level's KL over ALL rows, as an implementation on SB3's PPO computes it (the
@@ -57,6 +53,42 @@ VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
     },
 }
 """What each TL-AC variant sets when the corresponding setting is left at None."""
+
+REMOVED_SETTINGS: dict[str, str] = {
+    "awr_coef": "advantage-weighted imitation was measured no better; the imitation term "
+    "weighs each teacher by its informative trust (distill_coef)",
+    "awr_beta": "it went with awr_coef; the imitation term weighs each teacher by its "
+    "informative trust (distill_coef)",
+    "advice_cost": "it cost training return without helping the student alone; solo "
+    "episodes (solo_budget) hand states to the student",
+    "self_imitation": "measured within the seeds' spread; low_level_data silent trains the "
+    "student on its own returns where no teacher speaks",
+    "self_imitation_value": "it went with self_imitation; low_level_data silent trains the "
+    "student on its own returns where no teacher speaks",
+    "imitate_after_stop": "update_rule per_level stops each level on its own KL instead",
+    "agent_gate": "it slowed the student; the capped high-level entropy bonus "
+    "(ent_cap_high) keeps partial teachers from collapsing",
+    "solo_critic": "the critic always learns from solo episodes",
+    "trust": "the imitation term always weighs the teachers by the high level's softmax "
+    "among them (distill_coef)",
+    "advice_labels": "discrete advice is always each teacher's whole distribution, weighted "
+    "by how much it says (the former 'informative')",
+    "ortho_init_critic": "the critic follows ortho_init_low",
+    "rmsprop_alpha": "rmsprop_tf's smoothing constant is SB3's 0.99",
+    "ent_coef_low": "ent_coef is the low level's bonus (ent_coef_high the high level's)",
+    "norm_clip": "normalize_obs / normalize_reward clip at 10, as SB3's VecNormalize",
+    "imitation_std": "Box imitation uses a Gaussian of 0.1 action-box half-widths",
+    "ucb_c": "selector ucb1 uses c = 1 (scaled by the observed return range)",
+    "keep_best_student": "with solo episodes, predict always deploys the kept student",
+}
+"""Settings removed on 2026-11-26 (issue 41: none was used by a preset, and each was measured
+worse or no better; results/graduation-notes.md), each with what replaced it."""
+
+REMOVED_LOW_LEVEL_DATA: dict[str, str] = {
+    "none": "use 'silent' (the same wherever a teacher speaks)",
+    "uninformed": "measured slower than 'silent'; use 'silent'",
+}
+"""Removed values of low_level_data, each with what to use instead."""
 
 
 @dataclass(frozen=True)
@@ -80,11 +112,9 @@ class TLACConfig:
     rule): with update_rule joint, the larger of the two levels' KL stops the whole update;
     with per_level, each level stops on its own KL."""
     ent_coef: float = 0.0
-    """Entropy bonus of both levels, unless ent_coef_high / ent_coef_low are given."""
+    """Entropy bonus of the low level, and of the high level unless ent_coef_high is given."""
     ent_coef_high: float | None = None
-    """None: ent_coef."""
-    ent_coef_low: float | None = None
-    """None: ent_coef."""
+    """Entropy bonus of the high level. None: ent_coef."""
     ent_cap_high: float | None = None
     """With a high-level entropy bonus: each state's entropy counts only up to this many nats,
     so the bonus keeps the high level from collapsing without pushing it towards uniform
@@ -113,8 +143,6 @@ class TLACConfig:
     """rmsprop_tf (SB3's RMSpropTFLike, the paper's) or adam."""
     optimizer_eps: float = 1e-5
     """Epsilon of the optimizer (rmsprop_tf or adam)."""
-    rmsprop_alpha: float = 0.99
-    """Smoothing constant of rmsprop_tf."""
     use_sde: bool = False
     """Generalized state-dependent exploration for Box actions (Tables 8, 10)."""
     sde_sample_freq: int = -1
@@ -124,9 +152,8 @@ class TLACConfig:
     ortho_init_high: bool = True
     """Orthogonal initialisation of the high level (SB3's ortho_init)."""
     ortho_init_low: bool = True
-    """Orthogonal initialisation of the low level."""
-    ortho_init_critic: bool | None = None
-    """None: the same as ortho_init_low (the critic estimates V_pi_low, Eq. 1)."""
+    """Orthogonal initialisation of the low level and of the critic (which estimates
+    V_pi_low, Eq. 1)."""
     net_arch_high: list[int] = field(default_factory=lambda: [64, 64])
     """Hidden layers of the high-level actor (all three networks have the same depth)."""
     net_arch_low: list[int] = field(default_factory=lambda: [64, 64])
@@ -141,21 +168,12 @@ class TLACConfig:
     left at None; any of them can still be set by hand."""
     distill_coef: Schedule | None = None
     """Weight of the low level's imitation of the teachers, each weighted per state by the high
-    level's probability of choosing it (docs/graduation.md); number or {linear: [start, end]}.
-    None: the variant's (graduate 1.0, paper 0)."""
-    awr_coef: float = 0.0
-    """Advantage-weighted imitation of the EXECUTED teacher actions (AWR, Peng et al. 2019):
-    adds ``awr_coef * mean over teacher rows of -exp(min(A / awr_beta, log 20)) log
-    pi_low(a|s)`` (normalised advantages, no gradient through the weight), so that a noisy
-    teacher's better actions count more than its random ones. 0 (off) in both variants: a
-    candidate for noisy teachers (docs/graduation.md)."""
-    awr_beta: float = 1.0
-    """Temperature of awr_coef's weights (in units of the normalised advantage)."""
-    advice_cost: float | None = None
-    """Subtracted from the high level's (normalised) advantage wherever a teacher acted, so that
-    control passes to the agent once its actions are about as good. None: the variant's
-    (0 in both: measured, it cost training return without helping the student alone,
-    docs/graduation.md)."""
+    level's probability of choosing it among the teachers, and by how much its advice says there
+    (discrete actions: its whole distribution over actions as the label, and its trust times
+    ``1 - entropy / log n_actions``, so that a random teacher's advice weighs nothing:
+    losses.informative_trust; Box actions: a Gaussian of standard deviation 0.1 action-box
+    half-widths around the low level's mean, losses.scaled_squared_error); number or
+    {linear: [start, end]}. None: the variant's (graduate 1.0, paper 0; docs/graduation.md)."""
     imitation_buffer_size: int = 50_000
     """States (with every teacher's advice) kept for the imitation term (DAgger's data set)."""
     imitation_batch_size: int = 64
@@ -164,63 +182,18 @@ class TLACConfig:
     """Graduation by solo episodes: an episode is played by the student alone with probability
     min(1, solo_budget / (1 - competence)), competence measured from recent solo and assisted
     returns (tlac.algorithms.graduation), so solo play costs the training return about
-    solo_budget of the teachers' margin. None: the variant's (graduate 0.05, paper 0)."""
+    solo_budget of the teachers' margin. ``predict`` (the student a user deploys) uses the last
+    snapshot of the low level taken when its window of 20 solo returns was not clearly below
+    the best such window so far (tlac.algorithms.graduation.worth_deploying), rather than
+    whatever the last update left. None: the variant's (graduate 0.05, paper 0: no solo
+    episodes, and ``predict`` uses the live weights)."""
     normalize_obs: bool = False
     """Normalise the networks' observations by their running mean and std (SB3's VecNormalize,
-    clipped to +-norm_clip), inside TL-AC: teachers still see raw observations. Not with a
+    clipped to +-10), inside TL-AC: teachers still see raw observations. Not with a
     one-hot obs_encoding (categories have no scale)."""
     normalize_reward: bool = False
     """Divide training rewards by the running std of the discounted return (SB3's
     VecNormalize); logged returns stay raw."""
-    norm_clip: float = 10.0
-    """Clip of the normalised observations and rewards."""
-    imitation_std: float = 0.1
-    """Box actions: the imitation term is the negative log-likelihood of the teachers' actions
-    under a Gaussian around the low level's mean with this fixed standard deviation, in units
-    of the action box's half-width (imitation does not touch the exploration noise). 1.0 was
-    the first choice and left hopper's student alone at ~150: its imitation gradient was 100x
-    weaker than at 0.1, far below the policy gradient's (docs/graduation.md)."""
-    trust: str = "soft"
-    """How the imitation term weighs the teachers in a state: soft (the high level's
-    probabilities among the teachers), max (the teacher the high level prefers there, alone:
-    DAgger's relabelling with the preferred teacher) or share (the teachers' probabilities
-    among all choices, the agent included, so that the student copies little where the high
-    level prefers it; meant with low_level_data agent). max and share are candidates,
-    docs/graduation.md."""
-    advice_labels: str = "informative"
-    """Discrete actions: what the imitation term copies from each teacher in a replayed state.
-    sampled: the action the teacher gave when asked (one sample); distribution: the teacher's
-    whole distribution over actions where it can tell it (``action_probabilities``: the random,
-    good / noisy and partial teachers of tlac.teachers.wrappers; a one-hot of its action
-    otherwise). The expected loss is the same; a distribution removes the sampling noise, so
-    that a random teacher's advice cannot move the student's most likely action. informative:
-    distributions, and each teacher's trust in a state weighted by how much its advice says
-    there (``1 - entropy / log n_actions``: nothing for a uniform one; losses.informative_trust),
-    so that the student copies the teacher that knows, wherever the high level's trust is
-    wrong. informative is the default since 2026-11-24: it lifts the PPO-derived L + R greedy
-    student from 0.61 to 0.89 and 3 noisy from 0.00 to 0.35, holds on the other study sets,
-    and costs 1 optimal + 2 random at 1e5 (0.896 against sampled's 0.945; Teacher L alone
-    now trains to 0.817 with a student still at 0.00); with a user's plain functions (point masses)
-    it trains bit for bit as sampled (docs/graduation.md, "The teachers' whole advice").
-    filtered: as informative, but a teacher's lost trust is not moved to the others, so a
-    state whose trusted teachers say little is imitated less (measured no better than
-    informative on 1 optimal + 2 random: 0.906). On a Box action space a teacher's advice is
-    its action vector, and every value trains as sampled."""
-    keep_best_student: bool = True
-    """With solo episodes: ``predict`` (the student a user deploys) uses the last snapshot of
-    the low level taken when its window of 20 solo returns was not clearly below the best
-    such window so far (checked after every solo episode and at the end of ``learn``;
-    tlac.algorithms.graduation.worth_deploying), rather than whatever the last update left;
-    training itself is unchanged. False: the live weights. Without solo episodes (the paper
-    variant) ``predict`` always uses the live weights."""
-    solo_critic: bool = True
-    """Whether the shared critic also learns from solo episodes. False: it fits the returns of
-    assisted episodes only, the behaviour the high level's advantages are about (a candidate,
-    docs/graduation.md)."""
-    imitate_after_stop: bool = False
-    """When the target-KL stop ends an update early, spend its remaining gradient steps on the
-    imitation term alone (the high level, the low level's policy gradient and the critic stop as
-    in the paper). Meant with kl_rows: agent; a candidate, docs/graduation.md."""
     wean_imitation: bool = False
     """With solo episodes: multiply the imitation weight by ``1 - competence``, so that the
     student stops copying its teachers as its solo episodes match their assisted returns, and
@@ -228,26 +201,20 @@ class TLACConfig:
     the student's measured competence rather than by time). On in the opt-in preset
     ``past-teachers`` (presets/past-teachers.yaml), with low_level_data agent: there the
     student's own policy gradient takes over as the imitation fades, so it can learn past a
-    weak teacher (docs/graduation.md, "Learning past the teachers"). Off in both variants:
-    with the imitation term alone RMSprop normalises a slowly varying scale away."""
+    weak teacher (docs/graduation.md). Off in both variants: with the imitation term alone
+    RMSprop normalises a slowly varying scale away."""
     solo_greedy: bool = False
     """With solo episodes: the student acts greedily in them (its most likely action; the Box
-    mean), as it is deployed, so that competence measures the deployed student. Meant with
-    low_level_data none (a greedy action is not a sample of pi_low). Off: it steadied Acrobot
-    but moved CartPole's failure to another seed, and with low_level_data agent it starves the
-    policy gradient of samples (docs/graduation.md)."""
-    agent_gate: bool = False
-    """With solo episodes: where the high level picks the agent in an assisted episode, the
-    agent acts only with probability competence, else a teacher the high level prefers
-    (tlac.algorithms.graduation). Off in both variants: it keeps the training return of
-    partial teachers (L + R) from collapsing, but slows the student elsewhere
-    (docs/graduation.md)."""
+    mean), as it is deployed, so that competence and the kept student measure the deployed
+    student. On in the preset of a user's environment (presets/default.yaml); off in both
+    variants: on DoorKey it cost the training return, and with low_level_data agent it starves
+    the policy gradient of samples (docs/graduation.md)."""
     kl_rows: str | None = None
     """Which rows give the low level's approximate KL for the target-KL stop: agent (where the
     agent acted: pi_low's own samples), all (every row, as a PPO built on SB3 computes it) or
     high (none: only the high level's KL stops the epochs, since the imitation term moves
     pi_low on purpose; without an imitation term it acts as agent). None: the variant's
-    (graduate high, paper agent)."""
+    (graduate high, paper all)."""
     obs_encoding: str | None = None
     """raw, onehot (each integer observation dimension as indicators) or auto (onehot for an
     integer-dtype Box with small ranges, else raw; tlac.algorithms.encoding). None: the
@@ -255,35 +222,14 @@ class TLACConfig:
     low_level_data: str | None = None
     """Which transitions train the low level's policy gradient: all (the paper, Eq. 3 on every
     executed action), agent (only where it acted, so every ratio is an importance weight of
-    pi_low's own samples), none (the imitation term alone trains the low level once the
-    advice buffer holds advice; before that, and without teachers, the agent's rows: what the
-    graduate variant has always computed, although until 2026-11-23 its defaults said agent,
-    docs/graduation.md), silent (the agent's rows in the states where every teacher's advice
-    is uniform, losses.silent_states: a random teacher, a partial one outside its region, so
-    the student learns from its own returns where no teacher knows the way; elsewhere as none,
-    bit for bit: Teacher L's greedy student alone 0.00 -> 0.64, 5 seeds, docs/graduation.md)
-    or uninformed (the agent's rows, each weighted by how little even the most informative
-    teacher says there, ``1 - max_k info_k(s)``: losses.uninformed_share; measured slower than
-    none wherever a teacher is good or noisy). silent and uninformed read the teachers'
-    distributions: with discrete actions and ``advice_labels`` other than sampled only, else
-    they train as none. None: the variant's (graduate silent since 2026-11-24, none before;
-    paper all)."""
-    self_imitation: float = 0.0
-    """With ``low_level_data: silent``: weight of self-imitation in the silent states
-    (tlac.algorithms.graduation.SelfImitationBuffer; Oh et al. 2018): the student's own actions
-    there whose Monte-Carlo return beat the critic's value are imitated from a replay of
-    ``imitation_buffer_size`` rows, ``imitation_batch_size`` per minibatch. 0: off (both
-    variants: on Teacher L, 5 seeds, the greedy student 0.69 +- 0.20 against 0.64 +- 0.20,
-    within the seeds' spread; docs/graduation.md). Where some teacher always speaks there are
-    no silent states and it changes nothing."""
-    self_imitation_value: float = 0.0
-    """With self_imitation: weight of SIL's value term ``0.5 max(R - V(s), 0)^2`` on the
-    shared critic (Oh et al. 2018), which lifts V towards the best returns seen so that the
-    filter keeps only the actions that did best. 0: off."""
+    pi_low's own samples; the preset past-teachers) or silent (the agent's rows in the states
+    where every teacher's advice is uniform, losses.silent_states: a random teacher, a partial
+    one outside its region, so the student learns from its own returns where no teacher knows
+    the way; elsewhere the imitation term alone trains the low level. Before the imitation
+    term holds advice, and without teachers, the agent's rows; with Box actions no state is
+    silent). None: the variant's (graduate silent, paper all)."""
     selector: str = "learned"
     """High level: learned (TL-AC), random or ucb1 (per episode) -- the Figure 11 ablations."""
-    ucb_c: float = 1.0
-    """UCB1 exploration constant (scaled by the observed return range)."""
     n_envs: int = 1
     """Parallel environments, used only when TLAC builds the environment from a domain name."""
     vec_env: str = "dummy"
@@ -301,17 +247,23 @@ class TLACConfig:
 
     @classmethod
     def from_settings(cls, settings: dict[str, Any]) -> TLACConfig:
-        """Build and validate a config; unknown keys or bad values raise ConfigError."""
+        """Build and validate a config; unknown keys or bad values raise ConfigError, and so
+        does a removed setting or choice, naming what replaced it (:data:`REMOVED_SETTINGS`)."""
+        for name in settings:
+            if name in REMOVED_SETTINGS:
+                raise ConfigError(f"TL-AC setting {name!r} was removed: {REMOVED_SETTINGS[name]}")
+        data = settings.get("low_level_data")
+        if isinstance(data, str) and data in REMOVED_LOW_LEVEL_DATA:
+            raise ConfigError(
+                f"low_level_data {data!r} was removed: {REMOVED_LOW_LEVEL_DATA[data]}"
+            )
         return from_mapping(cls, "TL-AC", settings)
 
     @property
     def entropy_coefs(self) -> tuple[float, float]:
-        """The entropy bonus of (the low level, the high level): ``ent_coef_low`` /
-        ``ent_coef_high`` where set, else ``ent_coef``."""
-        return (
-            self.ent_coef if self.ent_coef_low is None else self.ent_coef_low,
-            self.ent_coef if self.ent_coef_high is None else self.ent_coef_high,
-        )
+        """The entropy bonus of (the low level, the high level): ``ent_coef``, and
+        ``ent_coef_high`` for the high level where set."""
+        return (self.ent_coef, self.ent_coef if self.ent_coef_high is None else self.ent_coef_high)
 
     def validate(self) -> None:
         """Raise ConfigError naming the first setting out of its range (run when the config
@@ -337,24 +289,16 @@ class TLACConfig:
             "max_grad_norm",
             "ent_coef",
             "optimizer_eps",
-            "advice_cost",
             "ent_cap_high",
             "solo_budget",
-            "awr_coef",
-            "self_imitation",
-            "self_imitation_value",
         ):
             check.number(name, getattr(self, name), 0.0)
-        for name in ("awr_beta", "norm_clip", "imitation_std"):
-            check.number(name, getattr(self, name), 0.0, open_low=True)
         for name, accepted in (
             ("optimizer", ["rmsprop_tf", "adam"]),
             ("update_rule", ["joint", "per_level"]),
             ("kl_rows", ["agent", "all", "high"]),
             ("obs_encoding", list(ENCODINGS)),
-            ("trust", list(losses.TRUST_RULES)),
-            ("advice_labels", ["sampled", "distribution", "informative", "filtered"]),
-            ("low_level_data", ["all", "agent", "none", "uninformed", "silent"]),
+            ("low_level_data", ["all", "agent", "silent"]),
             ("vec_env", ["dummy", "subproc"]),
             ("selector", list(SELECTOR_NAMES)),
         ):
@@ -364,20 +308,6 @@ class TLACConfig:
             raise ConfigError(
                 "net_arch_high, net_arch_low and net_arch_critic must have the same, non-zero number "
                 f"of layers (widths may differ), got {self.net_arch_high}, {self.net_arch_low}, {self.net_arch_critic}"
-            )
-        if self.self_imitation and self.low_level_data != "silent":
-            raise ConfigError(
-                f"self_imitation acts in the silent states only: it needs low_level_data 'silent', "
-                f"got {self.low_level_data!r} (variant {self.variant!r})"
-            )
-        if self.update_rule == "per_level" and self.imitate_after_stop:
-            raise ConfigError(
-                "imitate_after_stop acts when the whole update stops: it needs update_rule "
-                f"'joint', got 'per_level' (variant {self.variant!r})"
-            )
-        if self.self_imitation_value and not self.self_imitation:
-            raise ConfigError(
-                "self_imitation_value is SIL's value term: it needs self_imitation > 0"
             )
 
 

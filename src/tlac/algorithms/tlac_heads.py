@@ -40,6 +40,13 @@ from tlac.errors import ConfigError
 from tlac.presets import make_schedule
 from tlac.teachers.base import advice_probabilities
 
+IMITATION_STD = 0.1
+"""Box actions: the imitation term is the negative log-likelihood of the teachers' actions under
+a Gaussian around the low level's mean with this fixed standard deviation, in units of the
+action box's half-width (imitation does not touch the exploration noise). 1.0 left Hopper's
+student alone at ~150: its imitation gradient was 100x weaker than at 0.1, far below the policy
+gradient's (results/graduation-notes.md)."""
+
 if TYPE_CHECKING:
     from tlac.algorithms.tlac_config import TLACConfig
     from tlac.selectors import Selector
@@ -84,7 +91,6 @@ class TLACHeads:
                 cfg.gamma,
                 cfg.normalize_obs,
                 cfg.normalize_reward,
-                cfg.norm_clip,
             )
         self.discrete = isinstance(action_space, gym.spaces.Discrete)
         if self.discrete:
@@ -95,14 +101,11 @@ class TLACHeads:
             raise ConfigError(f"TL-AC supports Discrete and Box action spaces, got {action_space}")
         if cfg.use_sde and self.discrete:
             raise ConfigError("use_sde applies to Box action spaces only")
-        ortho_critic = (
-            cfg.ortho_init_low if cfg.ortho_init_critic is None else cfg.ortho_init_critic
-        )
         self.net = StackedMLP(
             net_in,
             [list(cfg.net_arch_high), list(cfg.net_arch_low), list(cfg.net_arch_critic)],
             [self.n_choices, low_out, 1],
-            ortho_init=[cfg.ortho_init_high, cfg.ortho_init_low, ortho_critic],
+            ortho_init=[cfg.ortho_init_high, cfg.ortho_init_low, cfg.ortho_init_low],
             out_gains=[0.01, 0.01, 1.0],  # SB3's gains for action and value heads
         )
         params: list[nn.Parameter] = list(self.net.parameters())
@@ -117,7 +120,7 @@ class TLACHeads:
         if not self.discrete:
             half = (action_space.high - action_space.low).astype(np.float64) / 2.0
             half[~np.isfinite(half) | (half <= 0)] = 1.0  # unbounded boxes: unit scale
-            scale = cfg.imitation_std * half.reshape(-1)
+            scale = IMITATION_STD * half.reshape(-1)
             self._imitation_scale = torch.as_tensor(scale, dtype=torch.float32)
 
     def _heads(
@@ -141,12 +144,6 @@ class TLACHeads:
             high = self.net.forward_member(x, HIGH)[0][:, : self.n_choices]
         low, hidden = self.net.forward_member(x, LOW)
         return high, low[:, : self.net.out_dims[LOW]], hidden[:, : self.config.net_arch_low[-1]]
-
-    def _replay_values(self, obs: torch.Tensor, grad: bool = False) -> torch.Tensor:
-        """The critic's values of replayed raw observations (with autograd if ``grad``)."""
-        x = self._replay_input(obs)
-        with torch.set_grad_enabled(grad):
-            return self.net.forward_member(x, CRITIC)[0][:, 0]
 
     def _replay_input(self, obs: torch.Tensor) -> torch.Tensor:
         """Replayed raw observations -> what the networks see (normalised with the current
@@ -203,12 +200,11 @@ class TLACHeads:
 
     def _advice_on(self, obs: torch.Tensor) -> torch.Tensor:
         """Every teacher's action in every row of ``obs``: ``(n_teachers, n)`` (discrete) or
-        ``(n_teachers, n, act_dim)`` (Box), each teacher asked once for the whole batch. With
-        ``advice_labels: distribution`` (discrete) each teacher's distribution over the actions
-        instead (also with ``informative``): ``(n_teachers, n, n_actions)``
-        (tlac.teachers.base.advice_probabilities)."""
+        ``(n_teachers, n, act_dim)`` (Box), each teacher asked once for the whole batch; with
+        discrete actions each teacher's distribution over them, ``(n_teachers, n, n_actions)``
+        (tlac.teachers.base.advice_probabilities: a point mass where a teacher cannot tell)."""
         raw = obs.numpy().reshape(-1, *self.observation_space.shape)
-        if self.discrete and self.config.advice_labels != "sampled":
+        if self.discrete:
             return torch.from_numpy(
                 np.stack(
                     [advice_probabilities(t, raw, self.action_space) for t in self.teachers]
@@ -217,34 +213,23 @@ class TLACHeads:
         choices = np.zeros(len(raw), dtype=np.int64)
         out = []
         for k in range(self.n_teachers):
-            actions = np.zeros(
-                (len(raw), *self.action_space.shape),
-                dtype=np.int64 if self.discrete else np.float32,
-            )
+            actions = np.zeros((len(raw), *self.action_space.shape), dtype=np.float32)
             choices[:] = k
             query_teachers(self.teachers, choices, raw, self.action_space, actions)
-            out.append(
-                torch.from_numpy(actions if self.discrete else actions.reshape(len(raw), -1))
-            )
+            out.append(torch.from_numpy(actions.reshape(len(raw), -1)))
         return torch.stack(out)
 
     def _advice_nll(
         self, low_out: torch.Tensor, latent: torch.Tensor, advice: torch.Tensor
     ) -> torch.Tensor:
-        """``(n_teachers, B)``: how far pi_low is from each teacher's action in each row. Discrete:
-        ``-log pi_low(a_k|s)``; Box: half the mean squared distance between the low level's mean
-        and the teacher's action, in units of ``imitation_std`` times the action box's
-        half-width: a fixed-variance Gaussian likelihood, so that imitation does not shrink the
-        exploration noise."""
+        """``(n_teachers, B)``: how far pi_low is from each teacher's advice in each row. Discrete:
+        the cross-entropy from the teacher's distribution, ``-sum_a pi_k(a|s) log pi_low(a|s)``;
+        Box: half the mean squared distance between the low level's mean and the teacher's
+        action, in units of :data:`IMITATION_STD` times the action box's half-width: a
+        fixed-variance Gaussian likelihood, so that imitation does not shrink the exploration
+        noise."""
         if self.discrete:
-            log_p = torch.log_softmax(low_out, -1)
-            if advice.is_floating_point():  # distributions: the cross-entropy to each
-                return -(advice * log_p.unsqueeze(0)).sum(-1)
-            return (
-                -log_p.unsqueeze(0)
-                .expand(len(advice), -1, -1)
-                .gather(2, advice.unsqueeze(2))[..., 0]
-            )
+            return -(advice * torch.log_softmax(low_out, -1).unsqueeze(0)).sum(-1)
         return losses.scaled_squared_error(low_out, advice, self._imitation_scale)
 
     def _imitation_term(
@@ -255,12 +240,11 @@ class TLACHeads:
         advice: torch.Tensor,
     ) -> torch.Tensor:
         """DAgger on replayed states: each teacher's advice weighted by the high level's trust
-        in that teacher (``trust``: by default the softmax over the teachers' logits only; no
-        gradient)."""
-        trust = losses.teacher_trust(high_logits.detach(), self.config.trust, self.n_teachers)
-        labels = self.config.advice_labels
-        if self.discrete and labels in ("informative", "filtered"):  # (K, B, A) dists
-            trust = losses.informative_trust(trust, advice, keep_total=labels == "informative")
+        in that teacher (the softmax over the teachers' logits only; no gradient), re-weighted
+        (discrete actions) by how much its advice says there (losses.informative_trust)."""
+        trust = torch.softmax(high_logits.detach()[:, : self.n_teachers], -1)
+        if self.discrete:  # advice: (K, B, A) distributions
+            trust = losses.informative_trust(trust, advice)
         return losses.imitation_loss(self._advice_nll(low_out, latent, advice), trust)
 
     def _mean_entropies(
@@ -307,7 +291,7 @@ class TLACHeads:
 
     def _student_heads(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """The deployed student's (low output, last hidden layer, Box log-std or None) on raw
-        observations: the kept snapshot (``keep_best_student``) where there is one, else the
+        observations: the kept snapshot (solo episodes) where there is one, else the
         live low level."""
         snap = self.deployed
         if snap is None:
@@ -402,4 +386,4 @@ def make_optimizer(cfg: TLACConfig, params: list[nn.Parameter]) -> torch.optim.O
     lr0 = make_schedule(cfg.learning_rate, "learning_rate")(1.0)
     if cfg.optimizer == "adam":
         return torch.optim.Adam(params, lr=lr0, eps=cfg.optimizer_eps, foreach=True)
-    return RMSpropTFLike(params, lr=lr0, alpha=cfg.rmsprop_alpha, eps=cfg.optimizer_eps)
+    return RMSpropTFLike(params, lr=lr0, alpha=0.99, eps=cfg.optimizer_eps)  # SB3 A2C's alpha

@@ -260,10 +260,6 @@ class TLACPersistence:
             "rng": self.rng.bit_generator.state,
             "generator": self.generator.get_state(),
             "replay_generator": self._replay_generator.get_state(),
-            "self_imitation_generator": self._self_imitation_generator.get_state(),
-            "self_imitation": None
-            if self.self_imitation_buffer is None
-            else self.self_imitation_buffer.state(),
             "selector": attributes_state(self.selector),
             "solo": None if self.solo is None else attributes_state(self.solo),
             "advice": None
@@ -289,10 +285,6 @@ class TLACPersistence:
         self.rng.bit_generator.state = state["rng"]
         self.generator.set_state(state["generator"])
         self._replay_generator.set_state(state["replay_generator"])
-        if "self_imitation_generator" in state:  # checkpoints from before self-imitation lack it
-            self._self_imitation_generator.set_state(state["self_imitation_generator"])
-        if state.get("self_imitation") is not None and self.self_imitation_buffer is not None:
-            self.self_imitation_buffer.restore(state["self_imitation"])
         restore_attributes(self.selector, state["selector"])
         if (state["solo"] is None) != (self.solo is None):
             raise ConfigError("the checkpoint's solo-episode statistics do not match the settings")
@@ -363,7 +355,7 @@ class TLACPersistence:
         vec_normalize = model.get_vec_normalize_env()
         if vec_normalize is not None and state.get("vec_normalize") is not None:
             set_vec_normalize_state(vec_normalize, state["vec_normalize"])  # as at save time
-        if state.get("deployed") is not None:  # the kept student (keep_best_student)
+        if state.get("deployed") is not None:  # the kept student (solo episodes)
             model.deployed = StudentSnapshot.from_state(
                 state["deployed"], copy.deepcopy(model.normalizer)
             )

@@ -9,7 +9,6 @@ from dataclasses import dataclass, field
 
 import torch
 
-from tlac.algorithms import losses
 from tlac.algorithms.tlac_config import TLACConfig
 
 
@@ -24,10 +23,6 @@ class RowWeights:
     """``(levels, n)`` 0/1: the rows of each level's approximate KL (the target-KL stop)."""
     loss: torch.Tensor | None
     """``(levels, n)`` 0/1: the rows of each level's policy loss; None: every row."""
-    critic: torch.Tensor | None
-    """``(n,)`` 0/1: the critic's rows; None: every row."""
-    high_adv_shift: torch.Tensor | None
-    """``(n,)``: the advice cost subtracted from the high level's advantage; None: no cost."""
 
 
 def row_weights(
@@ -37,15 +32,14 @@ def row_weights(
     train_high: bool,
     solo: bool,
     has_advice: bool,
-    uninformed: torch.Tensor | None = None,
+    silent: torch.Tensor | None = None,
 ) -> RowWeights:
     """The rows of an update (``data``: the flat rollout). ``solo``: some episodes are the
     student's alone (no high-level choice in them); ``has_advice``: the advice buffer already
     holds states from earlier updates (``kl_rows: high`` falls back to the agent's rows while
-    it is empty, as on the very first update); ``uninformed`` ``(n,)``: how little the teachers'
-    advice says in each row (losses.uninformed_share, or losses.silent_states' 0 / 1), for
-    ``low_level_data: uninformed`` / ``silent`` (None: every row is informed, so it trains as
-    ``none``).
+    it is empty, as on the very first update); ``silent`` ``(n,)`` 0/1: the rows where every
+    teacher's advice is uniform (losses.silent_states), for ``low_level_data: silent`` (None:
+    no row is silent, so the imitation term alone trains the low level).
 
     >>> cfg = TLACConfig.from_settings({"variant": "paper"})
     >>> data = {"log_prob_low": torch.zeros(3), "log_prob_high": torch.ones(3),
@@ -68,26 +62,21 @@ def row_weights(
     low_kl_rows = {"agent": agent_rows, "all": torch.ones(n), "high": torch.zeros(n)}[rule]
     kl = torch.stack([low_kl_rows, high_rows])[:levels]
     # the rows of the low level's policy gradient: "agent", only where it acted; "all", every
-    # row; "none", "uninformed" and "silent": before the imitation term has advice to learn
-    # from (the first update, and every update without teachers) the agent's rows, so it is
-    # PPO; after, the agent's rows weighted by ``uninformed`` (how little its teachers say
-    # there: where no teacher knows the way, the student learns it from its own returns),
-    # none at all without it (the caller gives none for "none")
+    # row; "silent": before the imitation term has advice to learn from (the first update, and
+    # every update without teachers) the agent's rows, so it is PPO; after, the agent's rows in
+    # the silent states (where no teacher knows the way, the student learns it from its own
+    # returns), none elsewhere
     if cfg.low_level_data == "all":
         low_loss_rows = torch.ones(n)
     elif cfg.low_level_data == "agent" or not has_advice:
         low_loss_rows = agent_rows
-    elif uninformed is None:
+    elif silent is None:
         low_loss_rows = torch.zeros(n)
     else:
-        low_loss_rows = agent_rows * uninformed
+        low_loss_rows = agent_rows * silent
     every_row = cfg.low_level_data == "all" and not solo  # the paper variant: no weights at all
     loss = None if every_row else torch.stack([low_loss_rows, high_rows])[:levels]
-    # solo_critic False: the critic fits the returns of assisted episodes only
-    critic = None if cfg.solo_critic or not solo else high_rows
-    # the advice cost: the high level pays for every step a teacher acts (graduate variant)
-    shift = cfg.advice_cost * (1.0 - agent_rows) if cfg.advice_cost else None
-    return RowWeights(old_log_probs, kl, loss, critic, shift)
+    return RowWeights(old_log_probs, kl, loss)
 
 
 @dataclass
@@ -121,18 +110,3 @@ def summarize_update(log: UpdateLog, levels: int) -> dict[str, float]:
     if len(fractions) > 1:
         out["train/clip_fraction_high"] = fractions[1]
     return out
-
-
-def level_advantages(
-    advantages: torch.Tensor, normalize: bool, high_shift: torch.Tensor | None
-) -> torch.Tensor:
-    """A minibatch's advantages: ``(B,)``, one for both levels (Eq. 6), or ``(2, B)`` when the
-    high level pays an advice cost (its row shifted down by ``high_shift``).
-
-    >>> level_advantages(torch.tensor([1.0, 3.0]), True, None).tolist()
-    [-0.7071067690849304, 0.7071067690849304]
-    >>> level_advantages(torch.tensor([1.0, 3.0]), False, torch.tensor([0.5, 0.0])).tolist()
-    [[1.0, 3.0], [0.5, 3.0]]
-    """
-    adv = losses.normalize(advantages) if normalize else advantages
-    return adv if high_shift is None else torch.stack([adv, adv - high_shift])

@@ -41,7 +41,6 @@ from tlac.algorithms.common import (
 )
 from tlac.algorithms.graduation import (
     AdviceBuffer,
-    SelfImitationBuffer,
     SoloEpisodes,
     StudentSnapshot,
 )
@@ -63,7 +62,6 @@ from tlac.algorithms.tlac_io import (
 from tlac.algorithms.tlac_update import (
     RowWeights,
     UpdateLog,
-    level_advantages,
     row_weights,
     summarize_update,
 )
@@ -144,30 +142,20 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self.generator = torch.Generator().manual_seed(self.seed)  # minibatch order
         self.rng = np.random.default_rng(self.seed)  # acting
         self.selector: Selector = make_selector(
-            cfg.selector, self.n_choices, self.n_envs, self.seed, self.rng, cfg.ucb_c
+            cfg.selector, self.n_choices, self.n_envs, self.seed, self.rng
         )
         self.train_high = self.selector.trains_high_level and self.n_choices > 1
         self.advice_buffer: AdviceBuffer | None = None
         if self.n_teachers and cfg.distill_coef != 0:
-            shape: tuple[int, ...] = (self.n_teachers,)  # discrete: each teacher's action
-            if not self.discrete or cfg.advice_labels != "sampled":
-                shape = (self.n_teachers, self.net.out_dims[LOW])  # Box actions, distributions
-            self.advice_buffer = AdviceBuffer(
-                cfg.imitation_buffer_size,
-                self.obs_dim,
-                shape,
-                torch.int64 if len(shape) == 1 else torch.float32,
+            self.advice_buffer = (
+                AdviceBuffer(  # each teacher's distribution (discrete), action (Box)
+                    cfg.imitation_buffer_size,
+                    self.obs_dim,
+                    (self.n_teachers, self.net.out_dims[LOW]),
+                    torch.float32,
+                )
             )
         self._replay_generator = torch.Generator().manual_seed(self.seed + 1)
-        # self-imitation in the silent states (low_level_data silent: TLACConfig checks it; only
-        # rows there are stored: where some teacher always speaks the buffer stays empty,
-        # nothing is drawn, and training is unchanged)
-        self.self_imitation_buffer: SelfImitationBuffer | None = None
-        if cfg.self_imitation and self.advice_buffer is not None and self.discrete:
-            self.self_imitation_buffer = SelfImitationBuffer(
-                cfg.imitation_buffer_size, self.obs_dim, self.n_envs, cfg.gamma
-            )
-        self._self_imitation_generator = torch.Generator().manual_seed(self.seed + 2)
         self.solo: SoloEpisodes | None = None
         if cfg.solo_budget and self.n_teachers:
             self.solo = SoloEpisodes(self.n_envs, cfg.solo_budget, self.seed)
@@ -212,10 +200,6 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             choices = self.selector.select(high_logits, self._episode_starts)  # line 14
             if self.solo is not None:  # graduate variant: some episodes are the student's alone
                 solo = self.solo.start(self._episode_starts)
-                if cfg.agent_gate:
-                    choices = self.solo.gate_agent(
-                        choices, high_logits[:, : self.n_teachers], self.n_teachers
-                    )
                 choices = np.where(solo, self.n_teachers, choices)
                 ro.solo[t] = solo
             actions = self._sample_low(low_out, latent)  # line 16 (kept where the agent acts)
@@ -279,46 +263,24 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         if cfg.wean_imitation and self.solo is not None:
             distill *= 1.0 - self.solo.competence
         imitates = self.advice_buffer is not None and distill > 0
-        uninformed = None
+        silent = None
         if imitates:
             advice = self._advice_on(
                 data["obs"] if unwrap_vec_normalize(self.env) is None else data["teacher_obs"]
             )
             self.advice_buffer.add(data["obs"], advice)
-            if advice.is_floating_point() and self.discrete:  # distributions
-                if cfg.low_level_data == "uninformed":
-                    uninformed = losses.uninformed_share(advice)
-                elif cfg.low_level_data == "silent":
-                    uninformed = losses.silent_states(advice)
+            if self.discrete and cfg.low_level_data == "silent":  # advice: distributions
+                silent = losses.silent_states(advice)
         rows = row_weights(
-            cfg,
-            data,
-            self.n_teachers,
-            self.train_high,
-            self.solo is not None,
-            has_advice,
-            uninformed,
+            cfg, data, self.n_teachers, self.train_high, self.solo is not None, has_advice, silent
         )
-        if self.self_imitation_buffer is not None:
-            silent = torch.zeros(n) if uninformed is None else uninformed
-            keep = (data["choices"] == self.n_teachers).float() * silent
-            self.self_imitation_buffer.add(
-                torch.from_numpy(ro.obs),
-                torch.from_numpy(ro.actions),
-                torch.from_numpy(ro.rewards),
-                torch.from_numpy(ro.dones),
-                keep.view(ro.dones.shape),
-            )
-        log, imitation_only = UpdateLog(), False
+        log = UpdateLog()
         per_level = cfg.update_rule == "per_level"
         running = torch.ones(rows.old_log_probs.shape[0], dtype=torch.bool)  # [low, high]
         for _epoch in range(cfg.n_epochs):
             self._n_updates += 1  # epochs begun, as SB3's train/n_updates counts them
             perm = torch.randperm(n, generator=self.generator)
             for start in range(0, n, cfg.batch_size):
-                if imitation_only:  # after the KL stop: the imitation term's steps only
-                    log.imitation.append(self._imitation_step(distill))
-                    continue
                 idx = perm[start : start + cfg.batch_size]
                 loss, kls, heads = self._minibatch_loss(
                     data, idx, rows, clip, distill if imitates else None, log
@@ -336,12 +298,9 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                     continue
                 if bool(too_far.any()):
                     log.stopped_early = True
-                    if cfg.imitate_after_stop and imitates:
-                        imitation_only = True
-                        continue
                     break
                 self._gradient_step(loss)
-            if (not running.any()) if per_level else (log.stopped_early and not imitation_only):
+            if (not running.any()) if per_level else log.stopped_early:
                 break
         out = summarize_update(log, rows.old_log_probs.shape[0])
         out["train/explained_variance"] = losses.explained_variance(data["values"], data["returns"])
@@ -380,13 +339,8 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         graduate variant's terms), each level's approximate KL ``[low, high]``, and the heads
         it used."""
         cfg = self.config
-        adv = level_advantages(
-            data["advantages"][idx],
-            cfg.normalize_advantage,
-            None
-            if rows.high_adv_shift is None or not self.train_high
-            else rows.high_adv_shift[idx],
-        )
+        adv = data["advantages"][idx]  # one advantage for both levels (Eq. 6)
+        adv = losses.normalize(adv) if cfg.normalize_advantage else adv
         net_obs = data["obs"] if self.normalizer is None else data["net_obs"]
         high_logits, low_out, values, latent = self._heads(net_obs[idx])
         # low level, Eq. 3: log pi_low(a|s) A(s, a) on the EXECUTED actions
@@ -400,21 +354,12 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         policy_losses, kls = losses.clipped_policy_losses(
             log_probs, old, adv, clip, weights, rows.kl[:, idx]
         )
-        critic_rows = None if rows.critic is None else rows.critic[idx]
-        vf_loss = losses.value_loss(values, data["returns"][idx], critic_rows)  # Eq. 5
+        vf_loss = losses.value_loss(values, data["returns"][idx])  # Eq. 5
         loss = policy_losses.sum() + cfg.vf_coef * vf_loss
-        if cfg.awr_coef:
-            teacher_rows = (data["choices"][idx] < self.n_teachers).float()
-            loss = loss + cfg.awr_coef * losses.advantage_weighted_nll(
-                lp_low, adv[0] if adv.dim() == 2 else adv, teacher_rows, cfg.awr_beta
-            )
         if distill is not None:
             imitation = self._replayed_imitation()
             loss = loss + distill * imitation
             log.imitation.append(imitation.detach())
-        sil = self.self_imitation_buffer
-        if sil is not None and len(sil) >= cfg.imitation_batch_size:
-            loss = loss + self._self_imitation_term(sil)
         if self._use_entropy:  # skipped when both coefficients are 0 (Table 5)
             entropies = self._mean_entropies(high_logits, low_out, latent, cfg.ent_cap_high or None)
             loss = loss - (self._ent_coefs[: len(entropies)] * entropies).sum()
@@ -474,10 +419,10 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         return [v for v in state if isinstance(v, torch.Tensor) and v.shape == p.shape]
 
     def _deploy_if_worth(self, worth: bool) -> None:
-        """keep_best_student: make the live student the one ``predict`` deploys when its recent
+        """The kept student: make the live student the one ``predict`` deploys when its recent
         solo episodes say it is worth it (after each solo episode, and at the end of ``learn``:
         tlac.algorithms.graduation.worth_deploying)."""
-        if worth and self.config.keep_best_student:
+        if worth:
             self.deployed = self._snapshot_student()
 
     def _replayed_imitation(self) -> torch.Tensor:
@@ -487,28 +432,6 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             self.config.imitation_batch_size, self._replay_generator
         )
         return self._imitation_term(*self._replay_heads(obs), advice)
-
-    def _self_imitation_term(self, sil: SelfImitationBuffer) -> torch.Tensor:
-        """Self-imitation on a minibatch replayed from the silent states (its weight included):
-        the filtered imitation of the student's own actions, and SIL's value term
-        ``0.5 max(R - V, 0)^2`` with ``self_imitation_value``."""
-        cfg = self.config
-        obs, actions, returns = sil.sample(cfg.imitation_batch_size, self._self_imitation_generator)
-        _, low, hidden = self._replay_heads(obs)
-        values = self._replay_values(obs, grad=bool(cfg.self_imitation_value))
-        term = cfg.self_imitation * losses.self_imitation_loss(
-            self._low_log_prob(low, hidden, actions), returns, values.detach()
-        )
-        if cfg.self_imitation_value:  # V up towards the best returns seen
-            below = (returns - values).clamp(min=0.0)
-            term = term + cfg.self_imitation_value * 0.5 * (below**2).mean()
-        return term
-
-    def _imitation_step(self, distill: float) -> torch.Tensor:
-        """One gradient step of the imitation term alone, on replayed states."""
-        imitation = self._replayed_imitation()
-        self._gradient_step(distill * imitation)
-        return imitation.detach()
 
     def learn(
         self,
