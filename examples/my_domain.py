@@ -3,7 +3,7 @@
 Use it by file and attribute, from anywhere (no installation, no registration):
 
     tlac train --env examples/my_domain.py:DOMAIN --teachers pd,random --steps 20000
-    # in an experiment config:  domain: examples/my_domain.py:DOMAIN
+    # in an experiment config, relative to the config's folder:  domain: my_domain.py:DOMAIN
 
 or from Python, by the name it registers:
 

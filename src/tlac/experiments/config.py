@@ -25,6 +25,7 @@ algorithm 'foo'; expected one of: tlac, ppo, a2c, dqn-tlql, ac-teach``.
 
 from __future__ import annotations
 
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -169,7 +170,8 @@ class ExperimentConfig:
     name: str
     """The experiment's name (its grid folder's runs are named after it)."""
     domain: str
-    """A registered domain name, or ``module:attribute`` / ``file.py:attribute``."""
+    """A registered domain name, or ``module:attribute`` / ``file.py:attribute`` (the file's
+    path absolute: a relative one in the YAML is resolved against the YAML's folder)."""
     steps: int
     """Environment steps of every run."""
     seeds: tuple[int, ...]
@@ -193,7 +195,7 @@ class ExperimentConfig:
     source: str = ""
     """The file it was loaded from (for messages)."""
     raw: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
-    """The YAML mapping as loaded (copied to ``DIR/experiment.yaml``)."""
+    """The YAML mapping as loaded (copied to ``DIR/experiment.yaml``: :meth:`raw_in`)."""
 
     def __post_init__(self) -> None:
         check = Checks(self.source or "<experiment>", file=True)
@@ -205,6 +207,22 @@ class ExperimentConfig:
         keys = [a.key for a in self.algorithms]
         if not keys or len(set(keys)) != len(keys):
             raise check.error("algorithms", "a non-empty list with distinct keys", keys)
+
+    def raw_in(self, folder: str | Path) -> dict[str, Any]:
+        """The YAML mapping to write into ``folder`` (``DIR/experiment.yaml``): :attr:`raw`,
+        with a relative domain file rewritten relative to ``folder``, so that the copy names
+        the same file (absolute where no relative path leads there)."""
+        raw = dict(self.raw)
+        written = raw.get("domain")
+        written_file = domain_file(written) if isinstance(written, str) else None
+        parts = domain_file(self.domain)
+        if parts is None or written_file is None or Path(written_file[0]).is_absolute():
+            return raw
+        try:
+            raw["domain"] = f"{os.path.relpath(parts[0], os.path.abspath(folder))}:{parts[1]}"
+        except ValueError:  # another drive (Windows)
+            raw["domain"] = self.domain
+        return raw
 
     def teacher_set(self, key: str) -> TeacherSet:
         for ts in self.teacher_sets:
@@ -298,9 +316,67 @@ def _eval_schedule(f: _Fields, value: Any) -> EvalSchedule:
     )
 
 
-def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
+def domain_file(spec: str) -> tuple[str, str] | None:
+    """``("path/to/my_domain.py", "DOMAIN")`` for a domain named by file
+    (``path/to/my_domain.py:DOMAIN``); ``None`` for a name or ``module:attribute``."""
+    module, colon, attr = spec.rpartition(":")
+    return (module, attr) if colon and module.endswith(".py") else None
+
+
+def resolve_domain_file(spec: str, folder: str | Path, source: str = "<experiment>") -> str:
+    """``spec`` with a relative domain file resolved against ``folder`` (the experiment file's
+    folder), as an absolute path; names, ``module:attribute`` and absolute paths unchanged.
+
+    Only ``folder`` is searched, never the working directory, so that a file means the same
+    domain from wherever it is run. A missing file raises :class:`ConfigError` naming both
+    places, and saying so when the working directory has the file."""
+    parts = domain_file(spec)
+    if parts is None or Path(parts[0]).is_absolute():
+        return spec
+    file, attr = parts
+    where = Path(os.path.abspath(Path(folder) / file))
+    if where.is_file():
+        return f"{where}:{attr}"
+    in_cwd = Path(os.path.abspath(file))
+    if in_cwd.is_file():
+        try:
+            fix = f"{os.path.relpath(in_cwd, os.path.abspath(folder))}:{attr}"
+        except ValueError:  # another drive (Windows)
+            fix = f"{in_cwd}:{attr}"
+        hint = (
+            f"{in_cwd} exists, relative to the working directory, but relative paths in an "
+            f"experiment file resolve against the file's folder: write '{fix}' (or an "
+            f"absolute path)"
+        )
+    else:
+        hint = f"nor {in_cwd}, relative to the working directory"
+    raise ConfigError(
+        f"{source}: field 'domain': domain file {file!r} not found: no {where} (relative "
+        f"paths resolve against the experiment file's folder); {hint}"
+    )
+
+
+def _domain(f: _Fields, value: Any, folder: Path) -> tuple[str, Any]:
+    """The ``domain`` field: a registered name, or ``module:attribute`` /
+    ``file.py:attribute`` (a relative file resolved against ``folder``), imported; returns
+    (the name as the grid uses it, the Domain)."""
+    if not (isinstance(value, str) and ":" in value):  # "module:attribute": imported
+        value = f.choice("domain", value, "domain", domain_names())
+    value = resolve_domain_file(value, folder, f.source)
+    try:
+        return value, get_domain(value)
+    except TlacError as exc:
+        raise f.problem("domain", str(exc)) from exc
+
+
+def parse_config(
+    data: Any, source: str = "<experiment>", folder: str | Path | None = None
+) -> ExperimentConfig:
     """Validate a loaded YAML mapping and build the :class:`ExperimentConfig`.
 
+    A domain named by a relative file (``domain: my_domain.py:DOMAIN``) is resolved against
+    ``folder`` (default: the folder of ``source``, the working directory for
+    ``"<experiment>"``) and kept as an absolute path (:func:`resolve_domain_file`).
     Raises :class:`ConfigError` naming ``source``, the field and what is accepted.
     """
     f = _Fields(source)
@@ -313,13 +389,8 @@ def parse_config(data: Any, source: str = "<experiment>") -> ExperimentConfig:
         if required not in top:
             raise f.problem(required, "missing (required)")
 
-    domain_name = top["domain"]
-    if not (isinstance(domain_name, str) and ":" in domain_name):  # "module:attribute": imported
-        domain_name = f.choice("domain", domain_name, "domain", domain_names())
-    try:
-        domain = get_domain(domain_name)
-    except TlacError as exc:
-        raise f.problem("domain", str(exc)) from exc
+    folder = Path(folder) if folder is not None else Path(source).parent
+    domain_name, domain = _domain(f, top["domain"], folder)
 
     name = f.slug(
         "name", top.get("name", Path(source).stem if source != "<experiment>" else "experiment")

@@ -45,7 +45,7 @@ import yaml
 
 from tlac.errors import ConfigError
 from tlac.experiments.archive import RunStore
-from tlac.experiments.config import ExperimentConfig
+from tlac.experiments.config import ExperimentConfig, domain_file
 from tlac.experiments.grid import ERROR_FILE, RUNS_DIR, GridRun, expand_grid, run_dir
 from tlac.run import RESULT_FILE, RunSpec, atomic_write_text, folder_lock
 
@@ -112,9 +112,21 @@ def spec_mismatch(spec: RunSpec, config_yaml: bytes | None) -> str | None:
     if spec.preset is not None:
         wanted["preset"] = spec.preset
     for key, value in wanted.items():
-        if key in done and done[key] != value:
+        if (
+            key in done
+            and done[key] != value
+            and not (key == "env" and _same_file(done[key], value))
+        ):
             return f"{key}={done[key]!r} (now {value!r})"
     return None
+
+
+def _same_file(done: Any, now: str) -> bool:
+    """Whether two domain files (``path/my_domain.py:DOMAIN``) have the same file name and
+    attribute: the run's name pins the Domain's own name, and the folder may have moved (a
+    project cloned elsewhere records another absolute path)."""
+    a, b = domain_file(done) if isinstance(done, str) else None, domain_file(now)
+    return a is not None and b is not None and (Path(a[0]).name, a[1]) == (Path(b[0]).name, b[1])
 
 
 def prepare_out_dir(
@@ -139,7 +151,7 @@ def prepare_out_dir(
                 f"{store.where(r.name)}: finished with {why} asked by {config.source}; use "
                 f"another --out, or delete that run folder to redo it"
             )
-    atomic_write_text(out / EXPERIMENT_FILE, yaml.safe_dump(config.raw, sort_keys=False))
+    atomic_write_text(out / EXPERIMENT_FILE, yaml.safe_dump(config.raw_in(out), sort_keys=False))
     return out
 
 
