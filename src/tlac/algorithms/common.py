@@ -4,6 +4,7 @@ target networks, and the truncation-aware next observation."""
 from __future__ import annotations
 
 import warnings
+from collections import OrderedDict
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -13,7 +14,7 @@ import torch
 from torch import nn
 
 from tlac.errors import ConfigError
-from tlac.teachers.base import ask_teacher
+from tlac.teachers.base import ask_teacher, take_rows
 from tlac.validation import from_mapping
 
 C = TypeVar("C")
@@ -138,14 +139,18 @@ def query_teachers(
             continue  # the agent's own action stays
         rows = np.flatnonzero(choices == k)
         teacher = teachers[k]
-        out[rows] = ask_teacher(teacher, obs[rows], action_space)
+        out[rows] = ask_teacher(teacher, take_rows(obs, rows), action_space)
 
 
 def original_obs(vec_normalize: Any) -> np.ndarray:
     """The observations of the environments' last reset or step as they produced them, before
     the user's SB3 ``VecNormalize`` normalised them: what teachers (trained on raw observations,
-    or carrying their own statistics) are given, while the networks see the normalised ones."""
-    return np.asarray(vec_normalize.get_original_obs(), dtype=np.float32)
+    or carrying their own statistics) are given, while the networks see the normalised ones
+    (a Dict space's: a dict of arrays)."""
+    obs = vec_normalize.get_original_obs()
+    if isinstance(obs, dict):
+        return {key: np.asarray(value) for key, value in obs.items()}  # type: ignore[return-value]
+    return np.asarray(obs, dtype=np.float32)
 
 
 def original_rewards(vec_normalize: Any) -> np.ndarray:
@@ -155,16 +160,36 @@ def original_rewards(vec_normalize: Any) -> np.ndarray:
 
 
 def space_to_data(space: gym.Space) -> dict[str, Any]:
-    """A Box or Discrete space as plain data (lists, numbers, strings), so that checkpoints
-    load with ``torch.load(weights_only=True)``: nothing in them is unpickled as code.
+    """A Box, Discrete, MultiDiscrete, MultiBinary or Dict space as plain data (lists, numbers,
+    strings), so that checkpoints load with ``torch.load(weights_only=True)``: nothing in them
+    is unpickled as code.
 
     >>> space_to_data(gym.spaces.Discrete(3))
     {'type': 'Discrete', 'n': 3, 'start': 0}
     >>> space_from_data(space_to_data(gym.spaces.Box(-1.0, 1.0, (2,)))) == gym.spaces.Box(-1.0, 1.0, (2,))
     True
+    >>> d = gym.spaces.Dict({"a": gym.spaces.MultiDiscrete([2, 3]), "b": gym.spaces.MultiBinary(2)})
+    >>> space_to_data(d)["spaces"][0]
+    ['a', {'type': 'MultiDiscrete', 'nvec': [2, 3], 'start': [0, 0], 'dtype': 'int64'}]
+    >>> spaces_match(space_from_data(space_to_data(d)), d)
+    True
     """
     if isinstance(space, gym.spaces.Discrete):
         return {"type": "Discrete", "n": int(space.n), "start": int(space.start)}
+    if isinstance(space, gym.spaces.MultiDiscrete):
+        return {
+            "type": "MultiDiscrete",
+            "nvec": space.nvec.tolist(),
+            "start": np.asarray(space.start).tolist(),
+            "dtype": str(space.dtype),
+        }
+    if isinstance(space, gym.spaces.MultiBinary):
+        return {"type": "MultiBinary", "n": np.asarray(space.n).tolist()}
+    if isinstance(space, gym.spaces.Dict):
+        return {
+            "type": "Dict",
+            "spaces": [[str(k), space_to_data(v)] for k, v in space.spaces.items()],
+        }
     if isinstance(space, gym.spaces.Box):
         return {
             "type": "Box",
@@ -174,7 +199,8 @@ def space_to_data(space: gym.Space) -> dict[str, Any]:
             "dtype": str(space.dtype),
         }
     raise ConfigError(
-        f"cannot save a model for a {type(space).__name__} space; expected Box or Discrete"
+        f"cannot save a model for a {type(space).__name__} space; expected Box, Discrete, "
+        "MultiDiscrete, MultiBinary or Dict"
     )
 
 
@@ -188,15 +214,34 @@ def space_from_data(data: Any) -> gym.Space:
             low = np.asarray(data["low"], dtype=dtype).reshape(data["shape"])
             high = np.asarray(data["high"], dtype=dtype).reshape(data["shape"])
             return gym.spaces.Box(low, high, dtype=dtype)
+        if data["type"] == "MultiDiscrete":
+            return gym.spaces.MultiDiscrete(
+                np.asarray(data["nvec"]),
+                dtype=np.dtype(data["dtype"]),
+                start=np.asarray(data["start"]),
+            )
+        if data["type"] == "MultiBinary":
+            return gym.spaces.MultiBinary(data["n"])
+        if data["type"] == "Dict":  # an OrderedDict's key order is kept as it is
+            return gym.spaces.Dict(
+                OrderedDict((str(k), space_from_data(v)) for k, v in data["spaces"])
+            )
     except (KeyError, TypeError, ValueError) as exc:
         raise ConfigError(f"malformed space in the checkpoint: {exc}") from None
     raise ConfigError(f"malformed space in the checkpoint: {data!r:.80}")
 
 
 def spaces_match(a: gym.Space, b: gym.Space) -> bool:
-    """Same kind, shape, dtype and bounds (Box) or size (Discrete)."""
+    """Same kind, shape, dtype and bounds (Box) or size (Discrete, MultiDiscrete,
+    MultiBinary); a Dict: the same keys in the same order, each matching."""
     if isinstance(a, gym.spaces.Discrete) and isinstance(b, gym.spaces.Discrete):
         return int(a.n) == int(b.n) and int(a.start) == int(b.start)
+    if isinstance(a, gym.spaces.MultiDiscrete) and isinstance(b, gym.spaces.MultiDiscrete):
+        return np.array_equal(a.nvec, b.nvec) and np.array_equal(a.start, b.start)
+    if isinstance(a, gym.spaces.MultiBinary) and isinstance(b, gym.spaces.MultiBinary):
+        return a.shape == b.shape
+    if isinstance(a, gym.spaces.Dict) and isinstance(b, gym.spaces.Dict):
+        return list(a.spaces) == list(b.spaces) and all(spaces_match(a[k], b[k]) for k in a.spaces)
     if isinstance(a, gym.spaces.Box) and isinstance(b, gym.spaces.Box):
         return (
             a.shape == b.shape

@@ -86,7 +86,8 @@ def worth_deploying(
 
 class StudentSnapshot:
     """The student as it was at one moment: a frozen copy of the low level's layers, its Box
-    log-std and the observation normaliser's statistics. With solo episodes the model
+    log-std, the observation normaliser's statistics and (an image space) a frozen copy of the
+    shared CNN (``encoder``; None: the model's stateless encoder). With solo episodes the model
     deploys (``predict``) the last student whose solo episodes were about as good as its best
     ones (:func:`worth_deploying`), not whatever the last update left: training goes on from
     the live weights, but a late collapse of the live student (measured on CartPole and Acrobot,
@@ -100,9 +101,11 @@ class StudentSnapshot:
         log_std: np.ndarray | None,
         normalizer: Normalizer | None,
         num_timesteps: int,
+        encoder: Any = None,
     ):
         self.layers, self.log_std, self.normalizer = layers, log_std, normalizer
         self.num_timesteps = num_timesteps
+        self.encoder = encoder
 
     def net_input(self, obs: np.ndarray) -> np.ndarray:
         """Raw ``(n, obs_dim)`` observations, normalised as they were at the snapshot."""
@@ -119,20 +122,29 @@ class StudentSnapshot:
             "log_std": None if self.log_std is None else torch.from_numpy(self.log_std),
             "normalizer": None if self.normalizer is None else self.normalizer.state(),
             "num_timesteps": self.num_timesteps,
+            "encoder": None if self.encoder is None else self.encoder.module.state_dict(),
         }
 
     @classmethod
-    def from_state(cls, state: dict[str, Any], normalizer: Normalizer | None) -> StudentSnapshot:
+    def from_state(
+        cls, state: dict[str, Any], normalizer: Normalizer | None, encoder: Any = None
+    ) -> StudentSnapshot:
         """Rebuild from :meth:`state`; ``normalizer``: a copy to load the saved statistics into
-        (the model's own, copied), or None."""
+        (the model's own, copied), or None; ``encoder``: a frozen copy of the model's CNN
+        encoder to load the saved CNN into, or None."""
         if normalizer is not None:
             normalizer.set_state(state["normalizer"])
+        if state.get("encoder") is not None and encoder is not None:
+            encoder.module.load_state_dict(state["encoder"])
+        else:
+            encoder = None
         log_std = state["log_std"]
         return cls(
             [(w.numpy().copy(), b.numpy().copy()) for w, b in state["layers"]],
             None if log_std is None else log_std.numpy().copy(),
             normalizer,
             int(state["num_timesteps"]),
+            encoder,
         )
 
 
@@ -221,8 +233,16 @@ class AdviceBuffer:
         obs_dim: int,
         advice_shape: tuple[int, ...],
         advice_dtype: torch.dtype,
+        obs_dtype: torch.dtype | None = None,
     ):
-        self.obs = torch.zeros(capacity, obs_dim)
+        # obs_dtype (a Discrete, Dict or image space's: uint8 for images, 12,288 values a row
+        # at 64x64x3) is left unwritten: no page of the ring is touched before a state lands
+        # there, and no unwritten row is read; None: float32 zeros, as for a Box
+        self.obs = (
+            torch.zeros(capacity, obs_dim)
+            if obs_dtype is None
+            else torch.empty(capacity, obs_dim, dtype=obs_dtype)
+        )
         self.advice = torch.zeros(capacity, *advice_shape, dtype=advice_dtype)
         self.capacity = capacity
         self.size = 0
@@ -234,7 +254,7 @@ class AdviceBuffer:
     def add(self, obs: torch.Tensor, advice: torch.Tensor) -> None:
         """``obs`` ``(n, obs_dim)``; ``advice`` ``(n_teachers, n, ...)`` as the update has it."""
         advice = advice.transpose(0, 1)[-self.capacity :]
-        obs = obs[-self.capacity :]
+        obs = obs[-self.capacity :].to(self.obs.dtype)
         slots = (self.next + torch.arange(len(obs))) % self.capacity
         self.obs[slots] = obs
         self.advice[slots] = advice

@@ -105,7 +105,10 @@ def vec_env_state(venv: Any) -> dict[str, Any]:
             f"or a Gymnasium env gives); got {type(inner or venv).__name__}"
         )
     exact = all(env_state_pickles(env) for env in inner.envs)
-    blob = pickle.dumps(inner.envs) if exact else None
+    try:
+        blob = pickle.dumps(inner.envs) if exact else None
+    except (pickle.PicklingError, AttributeError, TypeError):  # a wrapper holding a lambda
+        blob = None  # (gymnasium's FilterObservation): resumed with new episodes
     return {
         "envs": None if blob is None else torch.frombuffer(bytearray(blob), dtype=torch.uint8),
         "num_timesteps": int(venv.num_timesteps),

@@ -347,7 +347,9 @@ def settings_from_policy_kwargs(policy_kwargs: Any) -> dict[str, Any]:
     if unknown:
         raise ConfigError(
             f"policy_kwargs {sorted(unknown)} are not supported by TL-AC; it takes net_arch, "
-            "log_std_init and ortho_init (its other networks' settings are TL-AC settings)"
+            "log_std_init and ortho_init (its other networks' settings are TL-AC settings), "
+            "and, given to TLAC(...), features_extractor_class, features_extractor_kwargs and "
+            "normalize_images (tlac.algorithms.obs_spaces)"
         )
     out: dict[str, Any] = {}
     arch = policy_kwargs.get("net_arch")

@@ -36,6 +36,7 @@ from tlac.algorithms.nets import (
     np_sample_categorical,
 )
 from tlac.algorithms.normalization import Normalizer
+from tlac.algorithms.obs_spaces import ObsEncoder, ObsLayout, ObsPolicy, make_layout
 from tlac.errors import ConfigError
 from tlac.presets import make_schedule
 from tlac.teachers.base import advice_probabilities
@@ -66,23 +67,44 @@ class TLACHeads:
     selector: Selector
     deployed: StudentSnapshot | None
     _sde_noise: np.ndarray | None
+    obs_policy: ObsPolicy = ObsPolicy()  # TLAC(policy=...); a model file's own when loaded
 
     def _build_networks(self, obs_space: gym.Space, action_space: gym.Space) -> None:
         """The stacked networks (high, low, critic), the Box log-std, the input encoder and
         normaliser, and the imitation likelihood's scale. ``self.params``: what the optimiser
         trains."""
         cfg = self.config
-        if not isinstance(obs_space, gym.spaces.Box):
-            raise ConfigError(f"TL-AC needs a Box observation space, got {obs_space}")
         self.observation_space, self.action_space = obs_space, action_space
-        self.obs_dim = int(np.prod(obs_space.shape))
-        self.encoder = make_encoder(cfg.obs_encoding, obs_space)
+        # None: a Box read as TL-AC always has; else a Discrete, Dict or image space
+        # (tlac.algorithms.obs_spaces), stored as flat float32 rows of obs_dim values
+        self.obs_layout: ObsLayout | None = make_layout(
+            obs_space, self.obs_policy, cfg.obs_encoding
+        )
+        self.encoder: Any = None
+        if self.obs_layout is None:
+            self.obs_dim = int(np.prod(obs_space.shape))
+            self.encoder = make_encoder(cfg.obs_encoding, obs_space)
+            if cfg.normalize_obs and self.encoder is not None:
+                raise ConfigError(
+                    "normalize_obs needs raw observations, but obs_encoding "
+                    f"{cfg.obs_encoding!r} one-hot encodes this space; set obs_encoding: raw"
+                )
+        else:
+            self.obs_dim = self.obs_layout.dim
+            if any(p.kind != "raw" for p in self.obs_layout.parts):  # else the identity
+                self.encoder = ObsEncoder(self.obs_layout, self.obs_policy, cfg.ortho_init_low)
+            if cfg.normalize_obs and self.encoder is not None:
+                raise ConfigError(
+                    "normalize_obs needs raw observations, but this observation space is read "
+                    f"one-hot (Discrete) or as an image: {obs_space}"
+                )
+        # the shared features extractor's weights (NatureCNN), trained with the networks
+        self._extractor_params: list[nn.Parameter] = (
+            []
+            if self.encoder is None or not hasattr(self.encoder, "parameters")
+            else self.encoder.parameters()
+        )
         net_in = self.obs_dim if self.encoder is None else self.encoder.out_dim
-        if cfg.normalize_obs and self.encoder is not None:
-            raise ConfigError(
-                "normalize_obs needs raw observations, but obs_encoding "
-                f"{cfg.obs_encoding!r} one-hot encodes this space; set obs_encoding: raw"
-            )
         self.normalizer: Normalizer | None = None
         if cfg.normalize_obs or cfg.normalize_reward:
             self.normalizer = Normalizer(
@@ -108,7 +130,7 @@ class TLACHeads:
             ortho_init=[cfg.ortho_init_high, cfg.ortho_init_low, cfg.ortho_init_low],
             out_gains=[0.01, 0.01, 1.0],  # SB3's gains for action and value heads
         )
-        params: list[nn.Parameter] = list(self.net.parameters())
+        params: list[nn.Parameter] = list(self.net.parameters()) + self._extractor_params
         self.log_std: nn.Parameter | None = None
         if not self.discrete:
             shape = (cfg.net_arch_low[-1], low_out) if cfg.use_sde else (low_out,)
@@ -159,8 +181,32 @@ class TLACHeads:
     def _net_input(self, obs: np.ndarray) -> np.ndarray:
         """Raw observations -> what the networks see: ``(n, obs_dim)`` float32, normalised
         with the current statistics when normalize_obs is on."""
-        x = np.asarray(obs, dtype=np.float32).reshape(-1, self.obs_dim)
+        return self._normalized(self._flat_rows(obs))
+
+    def _normalized(self, x: np.ndarray) -> np.ndarray:
+        """Flat rows ``(n, obs_dim)`` normalised with the current statistics (normalize_obs)."""
         return x if self.normalizer is None else self.normalizer.obs_numpy(x)
+
+    def _flat_rows(self, obs: Any) -> np.ndarray:
+        """One raw observation or a batch (an array, a dict of arrays, ints) as the flat
+        float32 rows ``(n, obs_dim)`` that the rollout and the advice buffer store."""
+        if self.obs_layout is None:
+            return np.asarray(obs, dtype=np.float32).reshape(-1, self.obs_dim)
+        return self.obs_layout.flatten(obs)
+
+    def _teacher_rows(self, rows: np.ndarray) -> Any:
+        """Stored flat rows as the raw batch the teachers are given: for a Box, the rows in
+        the space's shape (float32, as always); else the environment's own observations (a
+        dict of arrays, ints, uint8 images: tlac.algorithms.obs_spaces.ObsLayout.unflatten)."""
+        if self.obs_layout is None:
+            return rows.reshape(-1, *self.observation_space.shape)
+        return self.obs_layout.unflatten(rows)
+
+    def _check_obs(self, obs: Any) -> tuple[Any, bool]:
+        """``predict``'s observations as a raw batch, and whether it was one observation."""
+        if self.obs_layout is None:
+            return check_observations(obs, self.observation_space)
+        return self.obs_layout.check(obs)
 
     def _act_heads_net(
         self, x: np.ndarray
@@ -203,20 +249,21 @@ class TLACHeads:
         ``(n_teachers, n, act_dim)`` (Box), each teacher asked once for the whole batch; with
         discrete actions each teacher's distribution over them, ``(n_teachers, n, n_actions)``
         (tlac.teachers.base.advice_probabilities: a point mass where a teacher cannot tell)."""
-        raw = obs.numpy().reshape(-1, *self.observation_space.shape)
+        raw = self._teacher_rows(obs.numpy())
+        n = obs.shape[0]
         if self.discrete:
             return torch.from_numpy(
                 np.stack(
                     [advice_probabilities(t, raw, self.action_space) for t in self.teachers]
                 ).astype(np.float32)
             )
-        choices = np.zeros(len(raw), dtype=np.int64)
+        choices = np.zeros(n, dtype=np.int64)
         out = []
         for k in range(self.n_teachers):
-            actions = np.zeros((len(raw), *self.action_space.shape), dtype=np.float32)
+            actions = np.zeros((n, *self.action_space.shape), dtype=np.float32)
             choices[:] = k
             query_teachers(self.teachers, choices, raw, self.action_space, actions)
-            out.append(torch.from_numpy(actions.reshape(len(raw), -1)))
+            out.append(torch.from_numpy(actions.reshape(n, -1)))
         return torch.stack(out)
 
     def _advice_nll(
@@ -297,8 +344,9 @@ class TLACHeads:
         if snap is None:
             _, low_out, _, latent = self._act_heads(obs)
             return low_out, latent, None
-        x = snap.net_input(np.asarray(obs, dtype=np.float32).reshape(-1, self.obs_dim))
-        out, hidden = snap.forward(x if self.encoder is None else self.encoder.numpy(x))
+        x = snap.net_input(self._flat_rows(obs))
+        encoder = self.encoder if snap.encoder is None else snap.encoder  # its own CNN, if any
+        out, hidden = snap.forward(x if encoder is None else encoder.numpy(x))
         return (
             out[:, : self.net.out_dims[LOW]],
             hidden[:, : self.config.net_arch_low[-1]],
@@ -312,6 +360,7 @@ class TLACHeads:
             None if self.log_std is None else self.log_std.detach().numpy().copy(),
             copy.deepcopy(self.normalizer),
             self.num_timesteps,
+            self.encoder.frozen_copy() if self._extractor_params else None,
         )
 
     def _greedy_low(self, low_out: np.ndarray) -> np.ndarray:
@@ -343,7 +392,7 @@ class TLACHeads:
         defaults: ``(actions, None)``, sampled unless ``deterministic`` (the greedy student,
         which tlac's evaluations and targets use); one observation gives one action, a batch
         ``(n, *obs_shape)`` gives ``n`` actions."""
-        obs, single = check_observations(observation, self.observation_space)
+        obs, single = self._check_obs(observation)
         low_out, latent, log_std = self._student_heads(obs)
         if deterministic:
             actions = self._greedy_low(low_out)
@@ -362,7 +411,7 @@ class TLACHeads:
         With ``deterministic`` the high level and the agent take their most likely choice."""
         if not self.teachers:
             return self.predict(obs, deterministic=deterministic)[0]
-        obs = check_observations(obs, self.observation_space)[0]
+        obs = self._check_obs(obs)[0]
         high_logits, low_out, _, latent = self._act_heads(obs)
         choices = self.selector.evaluation_choices(high_logits, deterministic)
         if deterministic:

@@ -27,6 +27,7 @@ from tlac.algorithms.common import (
 )
 from tlac.algorithms.graduation import StudentSnapshot
 from tlac.algorithms.normalization import set_vec_normalize_state, vec_normalize_state
+from tlac.algorithms.obs_spaces import ObsPolicy, check_space_kinds
 from tlac.algorithms.resume import (
     attributes_state,
     generator_states,
@@ -72,6 +73,7 @@ def as_vec_env(env: Any, n_envs: int, seed: int, vec_env: str = "dummy") -> tupl
     if isinstance(env, VecEnv):
         venv = env
     elif isinstance(env, gym.Env):
+        check_space_kinds(env.observation_space)  # before DummyVecEnv trips on a text key
         venv = DummyVecEnv([lambda: env])
         venv.seed(seed)
     else:
@@ -234,7 +236,9 @@ class TLACPersistence:
             "observation_space": space_to_data(self.observation_space),
             "action_space": space_to_data(self.action_space),
             "teacher_names": self.teacher_names,
+            "policy": self.obs_policy.to_data(),
             "net": self.net.state_dict(),
+            "extractor": self.encoder.module.state_dict() if self._extractor_params else None,
             "log_std": None if self.log_std is None else self.log_std.detach().clone(),
             "optimizer": self.optimizer.state_dict(),
             "normalizer": None if self.normalizer is None else self.normalizer.state(),
@@ -270,7 +274,11 @@ class TLACPersistence:
                 "next": buf.next,
                 "size": buf.size,
             },
-            "last_obs": tensor(self._last_obs),
+            "last_obs": tensor(
+                self._last_obs
+                if self._last_obs is None or self.obs_layout is None
+                else self._flat_rows(self._last_obs)  # a dict: its flat rows
+            ),
             "episode_starts": tensor(getattr(self, "_episode_starts", None)),
             "episode_returns": tensor(getattr(self, "_episode_returns", None)),
             "sde_noise": tensor(self._sde_noise),
@@ -298,6 +306,8 @@ class TLACPersistence:
         for name in ("last_obs", "episode_starts", "episode_returns", "sde_noise"):
             value = state[name]
             setattr(self, f"_{name}", None if value is None else value.numpy().copy())
+        if self._last_obs is not None and self.obs_layout is not None:
+            self._last_obs = self.obs_layout.unflatten(self._last_obs)
         if len(state["teachers"]) != len(self.teachers):
             raise ConfigError(
                 f"the checkpoint was saved with {len(state['teachers'])} teachers, "
@@ -339,10 +349,13 @@ class TLACPersistence:
             hint = f" (it is {found}, from an older tlac: retrain it)" if found else ""
             raise ConfigError(f"{str(path)!r} is not a {FORMAT} model file{hint}")
         model = cls.__new__(cls)
+        model.obs_policy = ObsPolicy.from_data(state.get("policy"))
         model._setup(TLACConfig(**state["config"]), state["seed"], env, teachers, None, state)
         # checkpoints before the per-layer masks stored an all-ones mask for every layer
         known = model.net.state_dict()
         model.net.load_state_dict({k: v for k, v in state["net"].items() if k in known})
+        if state.get("extractor") is not None:  # the shared CNN
+            model.encoder.module.load_state_dict(state["extractor"])
         if state["log_std"] is not None:
             assert model.log_std is not None
             with torch.no_grad():
@@ -357,7 +370,9 @@ class TLACPersistence:
             set_vec_normalize_state(vec_normalize, state["vec_normalize"])  # as at save time
         if state.get("deployed") is not None:  # the kept student (solo episodes)
             model.deployed = StudentSnapshot.from_state(
-                state["deployed"], copy.deepcopy(model.normalizer)
+                state["deployed"],
+                copy.deepcopy(model.normalizer),
+                model.encoder.frozen_copy() if model._extractor_params else None,
             )
         if resume:
             if "training" not in state:

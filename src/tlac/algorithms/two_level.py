@@ -51,6 +51,7 @@ from tlac.algorithms.nets import (
     member_grad_norms,
     np_log_softmax,
 )
+from tlac.algorithms.obs_spaces import POLICIES, ObsPolicy
 from tlac.algorithms.rollout import Rollout, compute_gae
 from tlac.algorithms.tlac_config import VARIANT_DEFAULTS, TLACConfig, resolve_settings  # noqa: F401  (VARIANT_DEFAULTS: re-exported)
 from tlac.algorithms.tlac_heads import TLACHeads, make_optimizer
@@ -87,7 +88,12 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
     ``TLAC_<n>`` under it), ``device`` (``"auto"`` or ``"cpu"``: tlac's networks are small and
     it acts in NumPy, so it runs on the CPU; ``"cuda"`` is refused), ``torch_threads`` (the
     torch threads ``learn`` sets: 1, fastest for [64, 64] networks and right for parallel runs;
-    None leaves torch's setting alone).
+    None leaves torch's setting alone), ``policy`` (SB3's name: ``"MlpPolicy"``, the default;
+    ``"CnnPolicy"`` for an image observation space, read by SB3's NatureCNN;
+    ``"MultiInputPolicy"`` for a Dict with image keys; an image never meets an MLP silently:
+    tlac.algorithms.obs_spaces, docs/algorithm.md "Observation spaces"). Discrete and
+    MultiDiscrete observations are one-hot encoded, Dict ones read key by key, and the
+    teachers always get the environment's own observations (an int, a dict, an image).
     """
 
     exact_resume = True  # save(training_state=True) / load(resume=True)
@@ -108,9 +114,16 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         tensorboard_log: str | None = None,
         device: str = "auto",
         torch_threads: int | None = 1,
+        policy: str = "MlpPolicy",
         **settings: Any,
     ):
         check_sb3_arguments(verbose, tensorboard_log, device, torch_threads)
+        if isinstance(env, str) and env in POLICIES:
+            raise ConfigError(
+                f"TLAC takes the environment first, TLAC(env, teachers, ...); pass the policy "
+                f"by name: TLAC(env, policy={env!r})"
+            )
+        self.obs_policy, settings = ObsPolicy.from_arguments(policy, settings)
         self.verbose, self.tensorboard_log, self.torch_threads = (
             int(verbose),
             tensorboard_log,
@@ -153,6 +166,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                     self.obs_dim,
                     (self.n_teachers, self.net.out_dims[LOW]),
                     torch.float32,
+                    None if self.obs_layout is None else self.obs_layout.storage_dtype,
                 )
             )
         self._replay_generator = torch.Generator().manual_seed(self.seed + 1)
@@ -190,10 +204,10 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         for t in range(T):
             if cfg.use_sde and cfg.sde_sample_freq > 0 and t > 0 and t % cfg.sde_sample_freq == 0:
                 self._resample_sde_noise()
-            obs = np.asarray(self._last_obs, dtype=np.float32).reshape(E, self.obs_dim)
+            obs = self._flat_rows(self._last_obs)
             if self.normalizer is not None:  # statistics of what the networks see, as VecNormalize
                 self.normalizer.update_obs(obs)
-            net_obs = self._net_input(obs)
+            net_obs = self._normalized(obs)
             if self.normalizer is not None:
                 ro.net_obs[t] = net_obs
             high_logits, low_out, values, latent = self._act_heads_net(net_obs)
@@ -229,7 +243,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
 
             ro.obs[t] = obs  # line 20: the transition and both levels' log-probabilities
             if vec_normalize is not None:
-                ro.teacher_obs[t] = teacher_obs.reshape(E, self.obs_dim)
+                ro.teacher_obs[t] = self._flat_rows(teacher_obs)
             ro.actions[t] = actions
             ro.choices[t] = choices
             ro.rewards[t] = rewards
@@ -395,6 +409,9 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         for m, grads in own.items():
             for g in grads:
                 g.mul_(coefs[m])
+        if self._extractor_params:  # the shared CNN: its own clip; it steps while a level runs
+            norm = nn.utils.clip_grad_norm_(self._extractor_params, self.config.max_grad_norm)
+            stop_if_not_finite(norm, "TL-AC", self.num_timesteps, "gradient norm")
         kept = self._member_state(stopped)
         self.optimizer.step()
         for live, saved in kept:

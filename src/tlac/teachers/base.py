@@ -16,7 +16,7 @@ are fixed). Three kinds of objects are accepted by :func:`as_teacher`:
 from __future__ import annotations
 
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any, Protocol, runtime_checkable
 
 import gymnasium as gym
@@ -45,7 +45,7 @@ class FunctionTeacher:
 
     def predict(self, obs: np.ndarray) -> np.ndarray:
         # no cast here: check_actions reports a NaN or an out-of-range value by name
-        actions = [self.fn(o) for o in obs]
+        actions = [self.fn(o) for o in batch_rows(obs)]
         for a in actions:
             if a is None or np.asarray(a).dtype.kind not in "biuf":
                 raise TeacherError(
@@ -114,6 +114,37 @@ def as_teacher(obj: Any, action_space: gym.Space, name: str | None = None) -> Te
     )
 
 
+def batch_len(obs: Any) -> int:
+    """How many observations a batch holds: an array's rows, or (a Dict observation space's
+    batch, a dict of arrays as SB3 gives it) the rows of its values.
+
+    >>> batch_len({"a": np.zeros((3, 2)), "b": np.zeros(3)}), batch_len(np.zeros((2, 5)))
+    (3, 2)
+    """
+    if isinstance(obs, Mapping):
+        return len(next(iter(obs.values())))
+    return len(obs)
+
+
+def take_rows(obs: Any, rows: np.ndarray) -> Any:
+    """The batch's ``rows`` (an index array), for an array or a dict of arrays."""
+    if isinstance(obs, Mapping):
+        return {key: np.asarray(value)[rows] for key, value in obs.items()}
+    return obs[rows]
+
+
+def batch_rows(obs: Any) -> Any:
+    """The batch's observations one by one (a dict of arrays: one dict per row), as a
+    function teacher takes them.
+
+    >>> [o["b"] for o in batch_rows({"a": np.zeros((2, 2)), "b": np.array([4, 5])})]
+    [np.int64(4), np.int64(5)]
+    """
+    if isinstance(obs, Mapping):
+        return [{key: value[i] for key, value in obs.items()} for i in range(batch_len(obs))]
+    return obs
+
+
 def teacher_label(teacher: Any, index: int) -> str:
     """A teacher's name for logs and errors: its ``name``, else a function's ``__name__``."""
     name = getattr(teacher, "name", None)
@@ -152,7 +183,7 @@ def ask_teacher(teacher: Any, obs: np.ndarray, action_space: gym.Space) -> np.nd
         raise TeacherError(
             f"teacher {teacher.name!r} raised {type(exc).__name__}: {str(exc)[:200]}"
         ) from exc
-    return check_actions(teacher.name, actions, action_space, len(obs))
+    return check_actions(teacher.name, actions, action_space, batch_len(obs))
 
 
 def check_actions(teacher_name: str, actions: Any, action_space: gym.Space, n: int) -> np.ndarray:
@@ -213,17 +244,17 @@ def advice_probabilities(teacher: Any, obs: np.ndarray, action_space: gym.Space)
     >>> advice_probabilities(t, np.zeros((1, 4)), gym.spaces.Discrete(3)).tolist()
     [[0.0, 0.0, 1.0]]
     """
-    n_actions = int(action_space.n)
+    n_actions, n = int(action_space.n), batch_len(obs)
     inner = teacher.teacher if isinstance(teacher, NamedTeacher) else teacher
     if hasattr(inner, "action_probabilities"):
         probs = np.asarray(inner.action_probabilities(obs), dtype=np.float64)
-        if probs.shape != (len(obs), n_actions) or not np.allclose(probs.sum(1), 1.0):
+        if probs.shape != (n, n_actions) or not np.allclose(probs.sum(1), 1.0):
             raise TeacherError(
                 f"teacher {teacher.name!r}: action_probabilities gave an array of shape "
-                f"{probs.shape} (rows summing to 1 expected, shape ({len(obs)}, {n_actions}))"
+                f"{probs.shape} (rows summing to 1 expected, shape ({n}, {n_actions}))"
             )
         return probs
     actions = ask_teacher(teacher, obs, action_space) - int(action_space.start)
-    probs = np.zeros((len(obs), n_actions))
-    probs[np.arange(len(obs)), actions] = 1.0
+    probs = np.zeros((n, n_actions))
+    probs[np.arange(n), actions] = 1.0
     return probs
