@@ -129,21 +129,29 @@ def test_python_api_uses_the_domain_preset():
 
 def test_a_users_environment_gets_the_default_preset():
     default = load_preset("default", "tlac")
-    # docs/graduation.md: chosen on benchmarks/user_envs.py (no cap: measured worse there;
-    # greedy solo episodes: measured better there, worse on DoorKey)
-    assert default == {"ent_coef_high": 0.01, "ent_cap_high": 0.0, "solo_greedy": True}
-    model = TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: 0], seed=0)
-    assert model.config == TLACConfig(ent_coef_high=0.01, ent_cap_high=0.0, solo_greedy=True)
-    assert not TLAC("doorkey", teachers=["optimal"]).config.solo_greedy
-    # the opt-in preset that learns past weak teachers ("Learning past the teachers")
-    past = TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: 0], preset="past-teachers")
-    assert past.config == TLACConfig(
+    # docs/graduation.md, "Users' own environments": SB3 PPO's rollouts, the student's own
+    # policy gradient everywhere, the imitation weaned by competence, a fifth of episodes solo
+    expected = dict(
+        n_steps=2048,
+        batch_size=64,
+        n_epochs=10,
+        learning_rate=3e-4,
+        optimizer="adam",
+        gae_lambda=0.95,
+        target_kl=None,
         ent_coef_high=0.01,
         ent_cap_high=0.0,
         low_level_data="agent",
         wean_imitation=True,
         solo_budget=0.2,
     )
+    assert default == expected
+    model = TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: 0], seed=0)
+    assert model.config == TLACConfig(**expected)
+    assert model.config.variant == "graduate" and not model.config.solo_greedy
+    # the retired opt-in preset names what replaced it
+    with pytest.raises(ConfigError, match=r"'past-teachers' was retired: .* leave preset out"):
+        TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: 0], preset="past-teachers")
     # a named domain's preset leaves the high-level bonus to the graduate variant: capped
     doorkey = TLAC("doorkey", teachers=["optimal"]).config
     assert (doorkey.ent_coef_high, doorkey.ent_cap_high, doorkey.ent_coef) == (0.03, 0.5, 0.0)

@@ -204,7 +204,10 @@ def symbolic_env() -> gym.Env:
 
 def test_minigrid_dict_learns_saves_and_resumes(tmp_path) -> None:
     flat = dict(normalize_images=False)  # the symbolic grid into the MLP, on purpose
-    model = TLAC(symbolic_env(), teachers=[dict_teacher], seed=0, policy_kwargs=flat)
+    # DoorKey's preset (16-step rollouts): a user's default preset collects 2048 steps per update
+    model = TLAC(
+        symbolic_env(), teachers=[dict_teacher], seed=0, policy_kwargs=flat, preset="doorkey"
+    )
     assert model.obs_dim == 148 and model.encoder.out_dim == 147 + 4  # direction one-hot
     model.learn(2000)
     act = lambda o: model.predict(o, deterministic=True)[0]  # noqa: E731

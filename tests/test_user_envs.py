@@ -84,9 +84,9 @@ def test_suite_entries_of_one_environment_share_its_ppo_runs():
 @pytest.mark.slow
 def test_the_student_learns_past_a_weak_cartpole_teacher():
     """Issue 41's learning test: the weak suite's CartPole teacher (an SB3 PPO agent trained
-    briefly, results/weak-teachers) plus a random teacher, the opt-in ``past-teachers`` preset,
-    1e5 steps, seed 0: the student alone (greedy, the suite's 30 evaluation episodes) ends far
-    above its teacher (measured: 500.0 against 269.3). A student that only copies its teacher,
+    briefly, results/weak-teachers) plus a random teacher, the default preset of a user's
+    environment, 1e5 steps, seed 0: the student alone (greedy, the suite's 30 evaluation
+    episodes) ends far above its teacher (measured: 500.0 against 269.3). A student that only copies its teacher,
     or one whose policy gradient is broken, stays near the teacher's level."""
     env_id = "CartPole-v1+weak"
     teacher = user_envs.load_weak_teacher("CartPole-v1")
@@ -94,5 +94,5 @@ def test_the_student_learns_past_a_weak_cartpole_teacher():
         user_envs.evaluate(lambda b: teacher.predict(b, deterministic=True)[0], env_id, 30).mean()
     )
     assert teacher_return < 350.0  # weak: PPO alone reaches 500 with the same steps
-    result = user_envs.train_one(env_id, "tlac", 0, 100_000, 30, {"preset": "past-teachers"})
+    result = user_envs.train_one(env_id, "tlac", 0, 100_000, 30, {})
     assert result["student_alone"] >= teacher_return + 150.0, (result, teacher_return)

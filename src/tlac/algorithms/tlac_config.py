@@ -198,17 +198,17 @@ class TLACConfig:
     """With solo episodes: multiply the imitation weight by ``1 - competence``, so that the
     student stops copying its teachers as its solo episodes match their assisted returns, and
     copies again if it falls back (Kickstarting's annealing, Schmitt et al. 2018, driven by
-    the student's measured competence rather than by time). On in the opt-in preset
-    ``past-teachers`` (presets/past-teachers.yaml), with low_level_data agent: there the
-    student's own policy gradient takes over as the imitation fades, so it can learn past a
-    weak teacher (docs/graduation.md). Off in both variants: with the imitation term alone
-    RMSprop normalises a slowly varying scale away."""
+    the student's measured competence rather than by time). On in the preset of a user's
+    environment (presets/default.yaml), with low_level_data agent: there the student's own
+    policy gradient takes over as the imitation fades, so it can learn past a weak teacher
+    (docs/graduation.md). Off in both variants: with the imitation term alone RMSprop
+    normalises a slowly varying scale away."""
     solo_greedy: bool = False
     """With solo episodes: the student acts greedily in them (its most likely action; the Box
     mean), as it is deployed, so that competence and the kept student measure the deployed
-    student. On in the preset of a user's environment (presets/default.yaml); off in both
-    variants: on DoorKey it cost the training return, and with low_level_data agent it starves
-    the policy gradient of samples (docs/graduation.md)."""
+    student. Off in both variants and presets: on DoorKey it cost the training return, and
+    with low_level_data agent (a user's environment) it starves the policy gradient of samples
+    (docs/graduation.md)."""
     kl_rows: str | None = None
     """Which rows give the low level's approximate KL for the target-KL stop: agent (where the
     agent acted: pi_low's own samples), all (every row, as a PPO built on SB3 computes it) or
@@ -222,7 +222,7 @@ class TLACConfig:
     low_level_data: str | None = None
     """Which transitions train the low level's policy gradient: all (the paper, Eq. 3 on every
     executed action), agent (only where it acted, so every ratio is an importance weight of
-    pi_low's own samples; the preset past-teachers) or silent (the agent's rows in the states
+    pi_low's own samples; the preset of a user's environment) or silent (the agent's rows in the states
     where every teacher's advice is uniform, losses.silent_states: a random teacher, a partial
     one outside its region, so the student learns from its own returns where no teacher knows
     the way; elsewhere the imitation term alone trains the low level. Before the imitation
