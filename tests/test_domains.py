@@ -31,7 +31,7 @@ def test_a_registered_domain_works_by_name_from_python() -> None:
     example = get_domain(f"{EXAMPLE}:DOMAIN")  # imported from the file
     mine = tlac.register_domain(dataclasses.replace(example, name="my-cartpole"), replace=True)
     assert "my-cartpole" in domain_names() and mine.presets["tlac"] == "default"
-    model = TLAC("my-cartpole", teachers=["pd", "random"], seed=0, n_steps=16)
+    model = TLAC("my-cartpole", teachers=["pd", "random"], seed=0, n_steps=16, batch_size=16)
     model.learn(512, progress_bar=False)
     assert model.num_timesteps >= 512 and model.teacher_names == ["pd", "random"]
     assert gym.make("tlac/my-cartpole-v0").reset(seed=0)[0].shape == (4,)

@@ -273,13 +273,20 @@ def test_the_kept_student_is_what_predict_deploys_and_save_keeps(tmp_path):
         teachers=[lambda obs: int(obs[2] > 0)],
         seed=0,
         solo_budget=1.0,  # every episode solo: the window of 20 fills within 2000 steps
+        n_steps=16,
+        batch_size=16,
     )
     m.learn(2000, progress_bar=False)
     assert len(m.solo.solo_returns) == m.solo.solo_returns.maxlen
     assert m.deployed is not None
     # the end of learn deploys the live student if its latest window qualifies, else keeps
-    m = TLAC(
-        gym.make("CartPole-v1"), teachers=[lambda obs: int(obs[2] > 0)], seed=0, solo_budget=1.0
+    m = TLAC(  # 16-step rollouts: each learn(16) below is one rollout
+        gym.make("CartPole-v1"),
+        teachers=[lambda obs: int(obs[2] > 0)],
+        seed=0,
+        solo_budget=1.0,
+        n_steps=16,
+        batch_size=16,
     )
     m.learn(2000, progress_bar=False)
     m.solo.solo_returns.extend([0.0] * 20)

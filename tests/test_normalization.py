@@ -63,7 +63,13 @@ def test_teachers_see_raw_observations_and_the_statistics_are_saved(tmp_path) ->
 
     env = _Shifted(gym.make("Pendulum-v1"))
     model = TLAC(
-        env, teachers=[teacher], seed=0, normalize_obs=True, normalize_reward=True, n_steps=32
+        env,
+        teachers=[teacher],
+        seed=0,
+        normalize_obs=True,
+        normalize_reward=True,
+        n_steps=32,
+        batch_size=32,
     )
     model.learn(640, progress_bar=False)
     assert len(seen) > 10 and min(float(o.min()) for o in seen) > 90.0  # raw: shifted by 100

@@ -92,7 +92,7 @@ def test_tlac_under_a_users_vecnormalize(tmp_path):
 
     venv = normalized_cartpole(raw_log)
     eval_env = normalized_cartpole(training=False, norm_reward=False)
-    model = TLAC(venv, teachers=[teacher], seed=0)
+    model = TLAC(venv, teachers=[teacher], seed=0, n_steps=256, batch_size=64)
     assert model.get_vec_normalize_env() is venv
     checkpoints = CheckpointCallback(512, str(tmp_path), save_vecnormalize=True)
     evaluation = EvalCallback(eval_env, eval_freq=512, n_eval_episodes=1, verbose=0)

@@ -181,7 +181,7 @@ class TLACPersistence:
             if config.batch_size > config.n_steps * self.n_envs:
                 raise ConfigError(
                     f"batch_size {config.batch_size} exceeds the rollout size n_steps * n_envs = "
-                    f"{config.n_steps * self.n_envs}"
+                    f"{config.n_steps * self.n_envs}; set batch_size to at most that"
                 )
         else:
             obs_space = space_from_data(saved["observation_space"])
