@@ -192,21 +192,13 @@ def scaled_squared_error(
     return 0.5 * (((mean.unsqueeze(0) - targets) / scale) ** 2).mean(-1)
 
 
-def value_loss(
-    values: torch.Tensor, returns: torch.Tensor, weights: torch.Tensor | None = None
-) -> torch.Tensor:
-    """Squared error of the shared critic against the GAE returns (Eq. 5); with 0/1
-    ``weights``, the mean over the rows whose weight is 1 (0 when there are none).
+def value_loss(values: torch.Tensor, returns: torch.Tensor) -> torch.Tensor:
+    """Squared error of the shared critic against the GAE returns (Eq. 5).
 
     >>> value_loss(torch.tensor([1.0, 0.0]), torch.tensor([3.0, 1.0])).item()
     2.5
-    >>> value_loss(torch.tensor([1.0, 0.0]), torch.tensor([3.0, 1.0]), torch.tensor([0.0, 1.0])).item()
-    1.0
     """
-    squared = (returns - values) ** 2
-    if weights is None:
-        return squared.mean()
-    return (squared * weights).sum() / weights.sum().clamp(min=1.0)
+    return ((returns - values) ** 2).mean()
 
 
 def approx_kl(log_prob: torch.Tensor, old_log_prob: torch.Tensor) -> torch.Tensor:

@@ -160,14 +160,13 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self.train_high = self.selector.trains_high_level and self.n_choices > 1
         self.advice_buffer: AdviceBuffer | None = None
         if self.n_teachers and cfg.distill_coef != 0:
-            self.advice_buffer = (
-                AdviceBuffer(  # each teacher's distribution (discrete), action (Box)
-                    cfg.imitation_buffer_size,
-                    self.obs_dim,
-                    (self.n_teachers, self.net.out_dims[LOW]),
-                    torch.float32,
-                    None if self.obs_layout is None else self.obs_layout.storage_dtype,
-                )
+            # per state, each teacher's distribution over actions (discrete) or action (Box)
+            self.advice_buffer = AdviceBuffer(
+                cfg.imitation_buffer_size,
+                self.obs_dim,
+                (self.n_teachers, self.net.out_dims[LOW]),
+                torch.float32,
+                None if self.obs_layout is None else self.obs_layout.storage_dtype,
             )
         self._replay_generator = torch.Generator().manual_seed(self.seed + 1)
         self.solo: SoloEpisodes | None = None
