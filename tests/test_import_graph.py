@@ -12,7 +12,7 @@ import pytest
 SRC = Path(__file__).resolve().parent.parent / "src"
 
 LAYERS: list[tuple[str, ...]] = [
-    ("tlac.errors", "tlac.argtypes", "tlac.presets", "tlac.validation"),
+    ("tlac.errors", "tlac.argtypes", "tlac.presets", "tlac.validation", "tlac.memory"),
     ("tlac.teachers",),  # generic: base, wrappers, the shipped-policy teachers (sac, ppo)
     ("tlac.recording",),
     ("tlac.domains",),

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import errno
 import json
 import os
 import shutil
@@ -199,8 +200,14 @@ def check_out_folder(out: Path, spec: RunSpec, domain: Domain, replace: bool) ->
     another run's files, or anything else (unless ``replace``). An unfinished run of the same
     settings is accepted (it continues or is redone). Raises ConfigError naming the folder and
     the way out."""
+    _check_usable_path(out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {str(out)!r} is a file; expected a folder for the run")
+    if replace and out.exists() and not _is_run_folder(out):
+        raise ConfigError(
+            f"--out {str(out)!r} holds files that are not a run's; --force replaces a run "
+            "folder only: give another folder"
+        )
     if replace or not out.exists() or all(p.name == LOCK_FILE for p in out.iterdir()):
         return
     if (out / RESULT_FILE).exists():
@@ -212,6 +219,34 @@ def check_out_folder(out: Path, spec: RunSpec, domain: Domain, replace: bool) ->
             f"--out {str(out)!r} is not empty and is not an unfinished run of these settings; "
             "give another folder, or --force to replace its run files"
         )
+
+
+def _check_usable_path(out: Path) -> None:
+    """ConfigError when the file system refuses the path itself (a name longer than it allows,
+    a component that is a file): said before anything is written."""
+    try:
+        out.exists()
+    except OSError as exc:
+        limit = ""
+        if exc.errno == errno.ENAMETOOLONG:
+            with contextlib.suppress(OSError, ValueError):
+                limit = f" (at most {os.pathconf('/', 'PC_NAME_MAX')} bytes a name)"
+        raise ConfigError(f"--out {str(out)!r} cannot be used: {exc.strerror}{limit}") from None
+
+
+def _is_run_folder(out: Path) -> bool:
+    """Whether ``out`` holds a run (a run's config.yaml) or only files a run writes: what
+    ``--force`` may replace."""
+    config = out / "config.yaml"
+    if config.is_file():
+        try:
+            data = yaml.safe_load(config.read_text())
+        except (OSError, UnicodeDecodeError, yaml.YAMLError):
+            return False
+        return isinstance(data, dict) and {"env", "algo"} <= set(data)
+    return all(
+        p.name in RUN_FILES or p.name == LOCK_FILE or ".tmp" in p.name for p in out.iterdir()
+    )
 
 
 @contextlib.contextmanager
@@ -287,17 +322,25 @@ def train_run(
     if check is not None:  # optional in the algorithm contract (docs/architecture.md)
         check(hp)
     check_in_process(hp)
+    if not str(out_dir).strip():
+        raise ConfigError("--out '' names no folder; expected the run folder's path")
     out = Path(out_dir)
     check_out_folder(out, spec, domain, replace)
+    created = not out.exists()
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise ConfigError(f"cannot write the run folder {str(out)!r}: {exc.strerror}") from None
-    with folder_lock(out / LOCK_FILE, f"--out {str(out)!r} is in use by another tlac process"):
-        meta = None if fresh else _resumable(out, spec, domain)
-        return _train_locked(
-            spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, meta=meta
-        )
+    try:
+        with folder_lock(out / LOCK_FILE, f"--out {str(out)!r} is in use by another tlac process"):
+            meta = None if fresh else _resumable(out, spec, domain)
+            return _train_locked(
+                spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, meta=meta
+            )
+    except ConfigError:  # refused when the model was built (its memory): leave no folder
+        if created and not (out / CHECKPOINT).exists():
+            shutil.rmtree(out, ignore_errors=True)
+        raise
 
 
 def resume_run(

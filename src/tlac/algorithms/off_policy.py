@@ -56,6 +56,7 @@ from tlac.algorithms.resume import (
     vec_env_state,
 )
 from tlac.errors import ConfigError
+from tlac.memory import check_fits
 from tlac.recording import Recorder, next_log_step
 
 
@@ -74,6 +75,13 @@ class ReplayBuffer:
 
     def __init__(self, capacity: int, fields: dict[str, tuple[tuple[int, ...], Any]]):
         self.capacity = int(capacity)
+        row = sum(
+            int(np.prod(shape)) * np.dtype(dtype).itemsize for shape, dtype in fields.values()
+        )
+        check_fits(
+            {f"the replay buffer (buffer_size={self.capacity})": row * self.capacity},
+            "lower buffer_size",
+        )
         self.arrays = {
             name: np.zeros((self.capacity, *shape), dtype)
             for name, (shape, dtype) in fields.items()

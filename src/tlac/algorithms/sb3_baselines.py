@@ -44,9 +44,10 @@ from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 from tlac.algorithms.callbacks import split_callbacks
 from tlac.algorithms.common import check_total_timesteps, stop_if_not_finite
 from tlac.errors import ConfigError
+from tlac.memory import FLOAT_BYTES, check_fits, mlp_params, network_bytes
 from tlac.presets import Schedule, make_schedule
 from tlac.recording import Recorder
-from tlac.validation import check_plain_numbers
+from tlac.validation import Checks, check_plain_numbers
 
 ContractCallback = Callable[[Any], "bool | None"]
 
@@ -55,14 +56,21 @@ _POLICY_KEYS = ("ortho_init", "log_std_init")
 _SCHEDULED = ("learning_rate", "clip_range")
 
 
-def _net_arch(value: Any) -> dict[str, list[int]]:
+def _net_arch(value: Any, name: str = "net_arch") -> dict[str, list[int]]:
     """``[64, 64]`` -> ``{pi: [64, 64], vf: [64, 64]}``; a ``{pi, vf}`` mapping is kept."""
-    if isinstance(value, dict) and set(value) == {"pi", "vf"}:
-        return {"pi": [int(v) for v in value["pi"]], "vf": [int(v) for v in value["vf"]]}
-    if isinstance(value, list | tuple) and all(isinstance(v, int) and v > 0 for v in value):
+
+    def sizes(layers: Any) -> bool:
+        return isinstance(layers, list | tuple) and all(
+            isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in layers
+        )
+
+    if isinstance(value, dict) and set(value) == {"pi", "vf"} and all(map(sizes, value.values())):
+        return {"pi": list(value["pi"]), "vf": list(value["vf"])}
+    if sizes(value):
         return {"pi": list(value), "vf": list(value)}
     raise ConfigError(
-        f"net_arch: expected a list of layer sizes or {{pi: [...], vf: [...]}}, got {value!r}"
+        f"{name}: expected a list of positive layer sizes or {{pi: [...], vf: [...]}}, "
+        f"got {value!r}"
     )
 
 
@@ -85,9 +93,18 @@ def sb3_kwargs(algo: str, hp: dict[str, Any]) -> dict[str, Any]:
     sb3_cls = _SB3_CLASSES[algo]
     hp = dict(hp)
     check_plain_numbers(hp, algo)
-    policy_kwargs: dict[str, Any] = dict(hp.pop("policy_kwargs", None) or {})
+    given = hp.pop("policy_kwargs", None) or {}
+    if not isinstance(given, dict):
+        raise ConfigError(f"{algo} setting policy_kwargs must be a mapping, got {given!r}")
+    policy_kwargs: dict[str, Any] = dict(given)
     out: dict[str, Any] = {}
-    if "net_arch" in hp:
+    for key in ("n_steps", "batch_size", "n_epochs"):
+        if key in hp:
+            Checks(algo).positive_int(key, hp[key])
+    if "net_arch" in policy_kwargs:  # SB3's own spelling: it replaces the preset's net_arch
+        hp.pop("net_arch", None)
+        policy_kwargs["net_arch"] = _net_arch(policy_kwargs["net_arch"], "policy_kwargs.net_arch")
+    elif "net_arch" in hp:
         policy_kwargs["net_arch"] = _net_arch(hp.pop("net_arch"))
     eps = float(hp.pop("optimizer_eps", 1e-5))
     name = hp.pop("optimizer", None)
@@ -207,6 +224,27 @@ class _ContractCallback(BaseCallback):
                 self._stop = True
 
 
+def _check_memory(algo: str, kwargs: dict[str, Any], env: VecEnv) -> None:
+    """Refuse, before SB3 allocates them, a policy or rollout that would not fit in memory."""
+    obs = int(np.prod(env.observation_space.shape or (1,)))
+    act = int(np.prod(env.action_space.shape or (1,)))
+    n_out = int(getattr(env.action_space, "n", act))
+    arch = kwargs["policy_kwargs"].get("net_arch", {"pi": [64, 64], "vf": [64, 64]})
+    params = mlp_params(obs, arch["pi"], n_out) + mlp_params(obs, arch["vf"], 1)
+    default = inspect.signature(_SB3_CLASSES[algo].__init__).parameters["n_steps"].default
+    n_steps = int(kwargs.get("n_steps", default))
+    check_fits(
+        {
+            f"the networks (net_arch {arch})": network_bytes(params),
+            f"the rollout (n_steps={n_steps} x {env.num_envs} environments)": FLOAT_BYTES
+            * n_steps
+            * env.num_envs
+            * (obs + act + 8),
+        },
+        "lower that setting",
+    )
+
+
 class _SB3Baseline:
     """Common adapter; subclasses set :attr:`name`."""
 
@@ -234,6 +272,7 @@ class _SB3Baseline:
             env = VecNormalize(env, gamma=float(kwargs.get("gamma", 0.99)))
         self._target_kl_schedule: Schedule | None = kwargs.pop("_target_kl_schedule", None)
         self.seed, self.recorder = seed, recorder
+        _check_memory(self.name, kwargs, env)
         sb3_cls = _SB3_CLASSES[self.name]
         self.model: BaseAlgorithm = sb3_cls(
             "MlpPolicy", env, seed=seed, device="cpu", verbose=0, **kwargs

@@ -38,6 +38,7 @@ from tlac.algorithms.nets import (
 from tlac.algorithms.normalization import Normalizer
 from tlac.algorithms.obs_spaces import ObsEncoder, ObsLayout, ObsPolicy, make_layout
 from tlac.errors import ConfigError
+from tlac.memory import FLOAT_BYTES, check_fits, mlp_params, network_bytes
 from tlac.presets import make_schedule
 from tlac.teachers.base import advice_probabilities
 
@@ -52,6 +53,38 @@ if TYPE_CHECKING:
     from tlac.algorithms.tlac_config import TLACConfig
     from tlac.selectors import Selector
     from tlac.teachers.base import Teacher
+
+
+def _check_memory(
+    cfg: TLACConfig,
+    net_in: int,
+    obs_dim: int,
+    n_envs: int,
+    n_choices: int,
+    low_out: int,
+    n_teachers: int,
+) -> None:
+    """Refuse, before anything is allocated, settings whose networks, rollout or imitation
+    buffer would not fit in the memory available (a ConfigError naming the largest)."""
+    hidden = [cfg.net_arch_high, cfg.net_arch_low, cfg.net_arch_critic]
+    widths = [[net_in, *h, out] for h, out in zip(hidden, [n_choices, low_out, 1], strict=False)]
+    depth = min(len(w) for w in widths)  # StackedMLP pads its three members to equal widths
+    padded = [max(w[i] for w in widths) for i in range(depth)]
+    net = 3 * mlp_params(padded[0], padded[1:-1], padded[-1])
+    arch = f"{list(cfg.net_arch_high)}/{list(cfg.net_arch_low)}/{list(cfg.net_arch_critic)}"
+    parts = {
+        f"the networks (net_arch_high/low/critic {arch})": network_bytes(net) + FLOAT_BYTES * net,
+        f"the rollout (n_steps={cfg.n_steps} x {n_envs} environments)": FLOAT_BYTES
+        * cfg.n_steps
+        * n_envs
+        * (3 * obs_dim + 12),
+    }
+    if n_teachers and cfg.distill_coef != 0:
+        rows = cfg.imitation_buffer_size
+        parts[f"the imitation buffer (imitation_buffer_size={rows})"] = (
+            FLOAT_BYTES * rows * (obs_dim + n_teachers * low_out)
+        )
+    check_fits(parts, "lower that setting")
 
 
 class TLACHeads:
@@ -123,6 +156,9 @@ class TLACHeads:
             raise ConfigError(f"TL-AC supports Discrete and Box action spaces, got {action_space}")
         if cfg.use_sde and self.discrete:
             raise ConfigError("use_sde applies to Box action spaces only")
+        _check_memory(
+            cfg, net_in, self.obs_dim, self.n_envs, self.n_choices, low_out, self.n_teachers
+        )
         self.net = StackedMLP(
             net_in,
             [list(cfg.net_arch_high), list(cfg.net_arch_low), list(cfg.net_arch_critic)],

@@ -104,10 +104,12 @@ def _cmd_train(args: argparse.Namespace) -> int:
         keep_best=args.eval_every is not None and not args.keep_last,
     )
     domain = spec.validate()
+    if args.out is not None and not args.out.strip():
+        raise ConfigError("--out '' names no folder; expected the run folder's path")
     # domain.name, not spec.env: a domain given as path/to/file.py:ATTR must not become a path
     out = (
         Path(args.out)
-        if args.out
+        if args.out is not None
         else Path("runs") / f"{domain.name}__{spec.algo}__seed{spec.seed}"
     )
     names = spec.resolved_teachers(domain)

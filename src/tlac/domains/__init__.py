@@ -20,6 +20,7 @@ import importlib
 import importlib.util
 import inspect
 import re
+import traceback
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -191,6 +192,8 @@ def _import_domain(spec: str) -> Domain:
             module = importlib.import_module(module_name)
     except ImportError as exc:
         raise ConfigError(f"environment {spec!r}: cannot import {module_name!r} ({exc})") from None
+    except Exception as exc:  # the user's module itself: a syntax error, or code that raises
+        raise ConfigError(f"environment {spec!r}: {_import_failure(exc)}") from None
     domain = getattr(module, attr, None)
     if not isinstance(domain, Domain):
         raise ConfigError(
@@ -199,6 +202,17 @@ def _import_domain(spec: str) -> Domain:
         )
     _IMPORTED[spec] = register_domain(domain, replace=True)
     return _IMPORTED[spec]
+
+
+def _import_failure(exc: Exception) -> str:
+    """Where and why importing a user's domain module failed, in one line: the file and line
+    of a syntax error, or of the deepest frame of the module's own code that raised."""
+    if isinstance(exc, SyntaxError):
+        return f"syntax error in {exc.filename}, line {exc.lineno}: {exc.msg}"
+    frames = [f for f in traceback.extract_tb(exc.__traceback__) if "importlib" not in f.filename]
+    where = f" in {frames[-1].filename}, line {frames[-1].lineno}" if frames else ""
+    detail = str(exc).splitlines()[0] if str(exc) else ""
+    return f"importing it raised {type(exc).__name__}{where}" + (f": {detail}" if detail else "")
 
 
 def get_domain(name: str) -> Domain:
