@@ -6,6 +6,9 @@
 * :class:`Recorder` accumulates the high level's selections per region and writes
   ``teacher_usage.csv`` once per logging window, and training scalars to ``progress.csv``
   (long format ``timestep,key,value``) and optionally TensorBoard.
+* :class:`EpisodeLog` wraps each environment under it and keeps what re-creates its episode in
+  progress (how it was reset, the actions since), which checkpoints store instead of the
+  environment itself (:mod:`tlac.algorithms.resume`).
 * :func:`platform_record` says where a run was made (result.json's ``platform``).
 """
 
@@ -13,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import hashlib
 import json
 import platform
 import time
@@ -22,8 +26,14 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
-from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, unwrap_vec_normalize
+from stable_baselines3.common.vec_env import (
+    DummyVecEnv,
+    VecEnv,
+    VecEnvWrapper,
+    unwrap_vec_normalize,
+)
 
 from tlac.errors import require_extra
 
@@ -101,10 +111,127 @@ class MetricWindow:
         for key, value in stats.items():
             self._values.setdefault(key, []).append(value)
 
+    def state(self) -> dict[str, np.ndarray]:
+        """The statistics so far, each an array as NumPy makes it of the values (its mean is
+        the same), for checkpoints."""
+        return {key: np.asarray(values) for key, values in self._values.items()}
+
+    def restore(self, state: dict[str, np.ndarray]) -> None:
+        self._values = {key: list(np.asarray(values)) for key, values in state.items()}
+
     def flush(self) -> dict[str, float]:
         out = {k: float(v[-1] if k in self.counts else np.mean(v)) for k, v in self._values.items()}
         self._values.clear()
         return out
+
+
+REPLAY_LIMIT = 100_000
+"""The longest episode in progress that :class:`EpisodeLog` keeps the actions of; a longer one
+cannot be re-created (a resume starts new episodes instead)."""
+
+
+def observation_digest(obs: Any) -> str:
+    """A sha256 of an observation (an array, or a dict of arrays), its dtypes and shapes
+    included: how a re-created episode is checked against the original."""
+    digest = hashlib.sha256()
+    items = sorted(obs.items()) if isinstance(obs, dict) else [("", obs)]
+    for key, value in items:
+        array = np.ascontiguousarray(value)
+        digest.update(f"{key}|{array.dtype.str}|{array.shape}|".encode())
+        digest.update(array.tobytes())
+    return digest.hexdigest()
+
+
+class EpisodeLog(gym.Wrapper):
+    """What re-creates the episode in progress of one environment, as plain data: the seed of
+    the reset that began it or, for a reset without one, the state of the environment's
+    generator just before it, and every action since. A checkpoint stores this
+    (:meth:`state`) rather than the environment itself, whose objects can only be pickled, and
+    :meth:`replay` redoes the episode in a fresh copy: a Gymnasium environment draws its
+    randomness from ``np_random``, so the same reset and the same actions give the same
+    episode (checked against the digest of its last observation). This holds for PyBullet's
+    and MuJoCo's simulations too, which no pickle can carry.
+
+    >>> env = EpisodeLog(gym.make("CartPole-v1"))
+    >>> _ = env.reset(seed=3); _ = [env.step(a) for a in (0, 1, 1)]
+    >>> again = EpisodeLog(gym.make("CartPole-v1"))
+    >>> again.replay(env.state()), again.state()["obs_sha256"] == env.state()["obs_sha256"]
+    (True, True)
+    """
+
+    def __init__(self, env: gym.Env):
+        super().__init__(env)
+        self._seed: int | None = None
+        self._rng: dict[str, Any] | None = None
+        self._actions: list[np.ndarray] | None = None  # None: nothing to re-create
+        self._last_obs: Any = None
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> Any:
+        rng = None if seed is not None else self.env.np_random.bit_generator.state
+        obs, info = self.env.reset(seed=seed, options=options)
+        self._seed, self._rng = (None if seed is None else int(seed)), rng
+        self._actions = [] if options is None else None  # reset options are not kept
+        self._last_obs = obs
+        return obs, info
+
+    def step(self, action: Any) -> Any:
+        if self._actions is not None:
+            if len(self._actions) < REPLAY_LIMIT:
+                self._actions.append(np.array(action))  # a copy, as the environment got it
+            else:
+                self._actions = None
+        result = self.env.step(action)
+        self._last_obs = result[0]
+        return result
+
+    def state(self) -> dict[str, Any] | None:
+        """The episode in progress as plain data and a tensor (None where it cannot be
+        re-created: never reset, reset with options, or longer than :data:`REPLAY_LIMIT`)."""
+        import torch
+
+        if self._actions is None:
+            return None
+        actions = np.stack(self._actions) if self._actions else np.zeros(0)
+        return {
+            "seed": self._seed,
+            "rng": self._rng,
+            "actions": torch.from_numpy(actions),
+            "steps": len(self._actions),
+            "obs_sha256": observation_digest(self._last_obs),
+        }
+
+    def replay(self, state: dict[str, Any] | None) -> bool:
+        """Re-create the episode that :meth:`state` described, in this environment; whether
+        it came out the same (same length, same last observation)."""
+        if not isinstance(state, dict) or state.get("actions") is None:
+            return False
+        try:
+            if state["seed"] is None:
+                self.env.np_random.bit_generator.state = state["rng"]
+            self.reset(seed=state["seed"])
+            actions = state["actions"].numpy()[: int(state["steps"])]
+            for action in actions:
+                _, _, terminated, truncated, _ = self.step(action)
+                if terminated or truncated:
+                    return False  # the original episode went on
+        except Exception:  # noqa: BLE001 - any failure means the episode is not re-created
+            return False
+        return observation_digest(self._last_obs) == state["obs_sha256"]
+
+
+def episode_logs(venv: VecEnv) -> DummyVecEnv | None:
+    """The DummyVecEnv under ``venv``'s wrappers, its environments wrapped in
+    :class:`EpisodeLog` (done once); None for a VecEnv whose environments are not in this
+    process (SubprocVecEnv)."""
+    while not isinstance(venv, DummyVecEnv):
+        venv = getattr(venv, "venv", None)
+        if venv is None:
+            return None
+    venv.envs = [
+        EpisodeLog(env) if isinstance(env, gym.Env) and not isinstance(env, EpisodeLog) else env
+        for env in venv.envs
+    ]
+    return venv
 
 
 class EpisodeRecorder(VecEnvWrapper):
@@ -113,6 +240,7 @@ class EpisodeRecorder(VecEnvWrapper):
 
     def __init__(self, venv: VecEnv, path: str | Path | None = None, window: int = 20):
         super().__init__(venv)
+        episode_logs(venv)  # what a checkpoint keeps of the episodes in progress
         # returns in the environment's own units even under a user's VecNormalize
         self._vec_normalize = unwrap_vec_normalize(venv)
         self.num_timesteps = 0
@@ -138,7 +266,8 @@ class EpisodeRecorder(VecEnvWrapper):
         """Open (or continue, keeping its start time) the SB3 Monitor-format file."""
         if path.exists():
             try:
-                self._t_start = float(json.loads(path.open().readline()[1:])["t_start"])
+                with path.open() as f:
+                    self._t_start = float(json.loads(f.readline()[1:])["t_start"])
             except (ValueError, KeyError, IndexError):
                 pass  # a damaged header: the times restart from now
         else:

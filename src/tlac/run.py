@@ -148,8 +148,9 @@ class RunSpec:
 
 
 def check_in_process(hp: dict[str, Any]) -> None:
-    """A run folder's environments stay in this process (its checkpoints pickle them for an
-    exact resume): ``vec_env: subproc`` is refused with that reason."""
+    """A run folder's environments stay in this process (its checkpoints keep what re-creates
+    their episodes in progress, for an exact resume): ``vec_env: subproc`` is refused with
+    that reason."""
     if hp.get("vec_env", "dummy") != "dummy":
         raise ConfigError(
             "vec_env=subproc is for the Python API (TLAC(..., vec_env='subproc')): a run of "
@@ -374,11 +375,25 @@ def resume_run(
 
 
 def _keep_rows_until(path: Path, last_step: int) -> None:
-    """Drop the rows of a run CSV whose timestep (first column) is after ``last_step``."""
+    """Drop the rows of a run CSV whose timestep (first column) is after ``last_step``, and a
+    torn last row (the run was killed while writing it: it has no line end), which the rows
+    written next would otherwise continue. A row that does not start with a timestep is a
+    ConfigError naming the file and line."""
     if not path.exists():
         return
-    lines = path.read_bytes().splitlines(keepends=True)  # bytes: the csv module's \r\n stays
-    kept = lines[:1] + [ln for ln in lines[1:] if int(float(ln.split(b",", 1)[0])) <= last_step]
+    data = path.read_bytes()
+    lines = data[: data.rfind(b"\n") + 1].splitlines(keepends=True)  # bytes: \r\n stays
+    kept = lines[:1]
+    for number, line in enumerate(lines[1:], start=2):
+        try:
+            step = float(line.split(b",", 1)[0])
+        except ValueError:
+            raise ConfigError(
+                f"{str(path)!r} line {number} is not a row of this run ({line[:40]!r}; "
+                "expected a timestep first): restore the file, or rerun with --force"
+            ) from None
+        if step <= last_step:
+            kept.append(line)
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_bytes(b"".join(kept))
     os.replace(tmp, path)

@@ -795,6 +795,6 @@ class ACTeach(SB3Compat):
     ) -> ACTeach:
         """Rebuild a model written by :meth:`save`; pass ``env`` and the same teachers to
         continue training (the replay buffer starts empty). ``resume``: restore the training
-        state of a file saved with ``training_state=True``, replay buffer included (this
-        unpickles the saved environments: resume your own checkpoints only)."""
+        state of a file saved with ``training_state=True``, replay buffer included (the
+        episodes in progress are re-created in ``env``; no code runs from the file)."""
         return load_model(cls, path, env, teachers, resume, "n_teachers")

@@ -3,6 +3,7 @@ target networks, and the truncation-aware next observation."""
 
 from __future__ import annotations
 
+import sys
 import warnings
 from collections import OrderedDict
 from pathlib import Path
@@ -267,12 +268,36 @@ def check_env_spaces(env: Any, observation_space: gym.Space, action_space: gym.S
             )
 
 
+def canonical_data(data: Any) -> Any:
+    """``data`` with fresh containers and interned strings, so that its pickle (``torch.save``)
+    depends on its values only: pickle writes an object seen before as a reference to it, so
+    the same values read back from a checkpoint (other string objects) would otherwise give
+    other bytes than those of the run that never stopped. Tensors are kept as they are.
+
+    >>> a, b = canonical_data({"k": ["x" * 3]}), canonical_data({"k": ["".join("xxx")]})
+    >>> a["k"][0] is b["k"][0]
+    True
+    """
+    if type(data) is str:
+        return sys.intern(data)
+    if isinstance(data, dict):
+        out = type(data)((canonical_data(k), canonical_data(v)) for k, v in data.items())
+        metadata = getattr(data, "_metadata", None)  # a state_dict's module versions
+        if metadata is not None:
+            out._metadata = canonical_data(metadata)  # type: ignore[attr-defined]
+        return out
+    if type(data) in (list, tuple):
+        return type(data)(canonical_data(v) for v in data)
+    return data
+
+
 def atomic_torch_save(data: Any, path: Path) -> Path:
-    """``torch.save`` to a temporary file, then rename it to ``path``: a crash while writing
-    leaves the previous file whole. Returns ``path``."""
+    """``torch.save`` of :func:`canonical_data` to a temporary file, then rename it to
+    ``path``: a crash while writing leaves the previous file whole, and the same values give
+    the same bytes. Returns ``path``."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
-    torch.save(data, tmp)
+    torch.save(canonical_data(data), tmp)
     tmp.replace(path)
     return path
 

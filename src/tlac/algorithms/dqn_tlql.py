@@ -385,6 +385,6 @@ class DQNTLQL(SB3Compat):
     ) -> DQNTLQL:
         """Rebuild a model written by :meth:`save`; pass ``env`` (and the same teachers) to
         continue training. ``resume``: restore the training state of a file saved with
-        ``training_state=True`` (this unpickles the saved environments: resume your own
-        checkpoints only), so that ``learn`` continues exactly where the model stopped."""
+        ``training_state=True`` (the episodes in progress are re-created in ``env``), so that
+        ``learn`` continues exactly where the model stopped. No code runs from the file."""
         return load_model(cls, path, env, teachers, resume, "n_choices")

@@ -1,19 +1,21 @@
 """What a checkpoint needs, beyond the weights, for training to continue EXACTLY as if it had
 never stopped: the random-number generators of the algorithm and of the teachers, and the
-environments with their episodes in progress.
+episodes in progress.
 
-Everything is stored as plain data and tensors (``torch.load(weights_only=True)`` reads it),
-except the environments' own state: there is no general way to write a Gymnasium environment
-as data, so it is pickled into a byte tensor. Loading the file runs no code; only
-:func:`restore_vec_env` unpickles those bytes, and only when a caller asks to resume (resume
-your own checkpoints only). Some environments cannot be pickled with their episode in progress
-(:func:`env_state_pickles`: PyBullet, MuJoCo); a resume then starts new episodes in them, and
-only that part is not exact. See docs/architecture.md, "Checkpoints and exact resume".
+Everything is stored as plain data and tensors, and loaded with
+``torch.load(weights_only=True)``: nothing in a checkpoint is unpickled, so no file runs code
+when it is read or resumed. The environments are not stored (their objects could only be
+pickled): each one's episode in progress is re-created instead, from the seed or generator
+state of the reset that began it and the actions since (:class:`tlac.recording.EpisodeLog`),
+which works for any environment whose randomness comes from its ``np_random`` as Gymnasium
+asks, PyBullet's and MuJoCo's simulations included. An episode that comes out different (its
+last observation is checked) or cannot be re-created is dropped with a warning and the resumed
+run starts new episodes; only that part is then not exact. See docs/architecture.md,
+"Checkpoints, exact resume and safe loading".
 """
 
 from __future__ import annotations
 
-import pickle
 import warnings
 from collections import deque
 from typing import Any
@@ -22,6 +24,7 @@ import numpy as np
 import torch
 
 from tlac.errors import ConfigError
+from tlac.recording import EpisodeLog, episode_logs
 
 _SKIP = (str, bytes, int, float, bool, type(None), np.ndarray, torch.Tensor, type)
 
@@ -76,41 +79,18 @@ def restore_generator_states(obj: Any, states: list[dict[str, Any]]) -> None:
         g.bit_generator.state = state
 
 
-def env_state_pickles(env: Any) -> bool:
-    """Whether pickling ``env`` keeps its episode in progress. Not for an environment whose
-    state lives outside Python (PyBullet's physics server: an unpickled copy is disconnected
-    and cannot step) nor for one that pickles as its constructor's arguments (Gymnasium's
-    ``EzPickle``: MuJoCo and Gymnasium-Robotics come back as new, un-reset simulations).
-
-    >>> import gymnasium as gym
-    >>> env_state_pickles(gym.make("CartPole-v1")), env_state_pickles(gym.make("Hopper-v5"))
-    (True, False)
-    """
-    from gymnasium.utils import EzPickle
-
-    base = getattr(env, "unwrapped", env)
-    return not (isinstance(base, EzPickle) or type(base).__module__.startswith("pybullet"))
-
-
 def vec_env_state(venv: Any) -> dict[str, Any]:
     """The episodes in progress of a tlac ``EpisodeRecorder`` over a ``DummyVecEnv``: its
-    counters as data and the environments pickled into a uint8 tensor (``None`` where they
-    cannot be, :func:`env_state_pickles`)."""
-    from stable_baselines3.common.vec_env import DummyVecEnv
-
-    inner = getattr(venv, "venv", None)
-    if not isinstance(inner, DummyVecEnv):
+    counters, and for each environment what re-creates its episode
+    (:meth:`tlac.recording.EpisodeLog.state`; ``None`` where it cannot be)."""
+    inner = episode_logs(venv)
+    if inner is None:
         raise ConfigError(
             "exact resume needs the environments in memory (a DummyVecEnv, as a domain name "
-            f"or a Gymnasium env gives); got {type(inner or venv).__name__}"
+            f"or a Gymnasium env gives); got {type(getattr(venv, 'venv', venv)).__name__}"
         )
-    exact = all(env_state_pickles(env) for env in inner.envs)
-    try:
-        blob = pickle.dumps(inner.envs) if exact else None
-    except (pickle.PicklingError, AttributeError, TypeError):  # a wrapper holding a lambda
-        blob = None  # (gymnasium's FilterObservation): resumed with new episodes
     return {
-        "envs": None if blob is None else torch.frombuffer(bytearray(blob), dtype=torch.uint8),
+        "episodes": [env.state() if isinstance(env, EpisodeLog) else None for env in inner.envs],
         "num_timesteps": int(venv.num_timesteps),
         "returns": torch.from_numpy(np.array(venv._returns)),
         "lengths": torch.from_numpy(np.array(venv._lengths)),
@@ -121,27 +101,38 @@ def vec_env_state(venv: Any) -> dict[str, Any]:
 
 
 def restore_vec_env(venv: Any, state: dict[str, Any]) -> bool:
-    """Put the saved environments and counters into ``venv`` (unpickles the environments).
+    """Re-create the saved episodes in progress in ``venv``'s fresh environments and put back
+    its counters.
 
-    Returns False where the environments cannot come back with their episodes in progress
-    (:func:`env_state_pickles`, also for checkpoints written before that check): ``venv`` keeps
-    its own environments, the unfinished episodes are dropped from the counters, and the caller
-    must reset ``venv`` before its next step (a warning says so)."""
-    inner = venv.venv
-    exact = state["envs"] is not None and all(env_state_pickles(env) for env in inner.envs)
-    if exact:
-        envs = pickle.loads(state["envs"].numpy().tobytes())  # noqa: S301 - resume of own files
-        if len(envs) != len(inner.envs):
-            raise ConfigError(
-                f"the checkpoint holds {len(envs)} environments, the given env has {len(inner.envs)}"
-            )
-        for env in inner.envs:
-            env.close()
-        inner.envs = envs
+    Returns False where an episode cannot be re-created or comes out different (and for a
+    checkpoint of an older tlac, which pickled its environments: that pickle is never read):
+    the unfinished episodes are then dropped from the counters, and the caller must reset
+    ``venv`` before its next step (a warning says so)."""
+    inner = episode_logs(venv)
+    if inner is None:
+        raise ConfigError("exact resume needs the environments in memory (a DummyVecEnv)")
+    episodes = state.get("episodes")
+    if episodes is not None and len(episodes) != len(inner.envs):
+        raise ConfigError(
+            f"the checkpoint holds {len(episodes)} environments, the given env has {len(inner.envs)}"
+        )
+    exact = episodes is not None and all(
+        isinstance(env, EpisodeLog) and env.replay(episode)
+        for env, episode in zip(inner.envs, episodes, strict=True)
+    )
+    if exact:  # as after the uninterrupted run's first reset: seeds are used once
+        inner._reset_seeds()
+        inner._reset_options()
     else:
+        why = (
+            "this checkpoint was written by an older tlac, which pickled its environments "
+            "(never unpickled: that could run code)"
+            if episodes is None
+            else "its episodes in progress could not be re-created as they were"
+        )
         warnings.warn(
-            f"{type(inner.envs[0].unwrapped).__name__}: its simulation cannot be saved, so the "
-            "resumed run starts new episodes (the unfinished ones are dropped; the rest is exact)",
+            f"{type(inner.envs[0].unwrapped).__name__}: {why}, so the resumed run starts new "
+            "episodes (the unfinished ones are dropped; the rest is exact)",
             stacklevel=2,
         )
     venv.num_timesteps = state["num_timesteps"]

@@ -39,7 +39,7 @@ from tlac.algorithms.resume import (
 from tlac.algorithms.tlac_config import TLACConfig
 from tlac.domains import domain_names, get_domain, make_teachers, make_vec_env
 from tlac.errors import ConfigError
-from tlac.recording import EpisodeRecorder, find_episode_recorder
+from tlac.recording import EpisodeRecorder, MetricWindow, find_episode_recorder
 from tlac.teachers.base import Teacher, as_teacher, teacher_label, unique_names
 
 FORMAT = "tlac.TLAC/2"
@@ -286,6 +286,12 @@ class TLACPersistence:
             "env": vec_env_state(self.env),
             "schedule": None if self._schedule is None else list(self._schedule),
             "n_updates": self._n_updates,
+            "log_window": None
+            if self._log_window is None
+            else {
+                "metrics": {k: tensor(v) for k, v in self._log_window[0].state().items()},
+                "usage": tensor(self._log_window[1]),
+            },
         }
 
     def _load_training_state(self, state: dict[str, Any]) -> None:
@@ -320,6 +326,11 @@ class TLACPersistence:
         schedule = state["schedule"]
         self._resumed_schedule = None if schedule is None else (int(schedule[0]), int(schedule[1]))
         self._n_updates = int(state.get("n_updates", 0))
+        saved_window = state.get("log_window")
+        if saved_window is not None:
+            window = MetricWindow(counts=("train/n_updates",))
+            window.restore({k: v.numpy() for k, v in saved_window["metrics"].items()})
+            self._log_window = (window, saved_window["usage"].numpy().copy())
 
     @classmethod
     def load(
@@ -336,8 +347,9 @@ class TLACPersistence:
         (needs ``env`` and the same ``teachers``), so that ``learn`` continues exactly where
         the saved model stopped; the next ``learn`` call keeps the schedules (learning rate,
         clip range...) of the call that was interrupted, so a run resumed with its remaining
-        steps follows the same schedules as an uninterrupted one. This unpickles the saved environments: resume your own
-        checkpoints only. Without ``resume`` loading runs no code from the file."""
+        steps follows the same schedules as an uninterrupted one. The episodes in progress are
+        re-created in ``env``'s environments (:mod:`tlac.algorithms.resume`). Loading, with or
+        without ``resume``, runs no code from the file (``torch.load(weights_only=True)``)."""
         path = Path(path)
         if not path.exists() and path.with_name(path.name + ".pt").exists():
             path = path.with_name(path.name + ".pt")

@@ -179,6 +179,8 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self._schedule: tuple[int, int] | None = None
         self._resumed_schedule: tuple[int, int] | None = None
         self._n_updates = 0  # epochs begun over all updates (SB3's train/n_updates)
+        # the logging window in progress (learn): its statistics and the high level's choices
+        self._log_window: tuple[MetricWindow, np.ndarray] | None = None
         self._ent_coefs = torch.tensor(cfg.entropy_coefs)  # [low, high]
         self._use_entropy = bool(self._ent_coefs.any())
 
@@ -487,8 +489,11 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         episodes = find_episode_recorder(self.env)
         bar = make_progress_bar(total_timesteps, "TL-AC", progress_bar)
         usage = np.zeros(self.n_choices)  # the high level's choices since the bar's last text
-        logged_usage = np.zeros(self.n_choices)  # ... since the last logged window
-        window = MetricWindow(counts=("train/n_updates",))
+        # the window since the last log, kept on the model (and in its checkpoints): a
+        # continued or resumed run logs the same means as an uninterrupted one
+        if self._log_window is None or start_steps == 0:
+            self._log_window = (MetricWindow(counts=("train/n_updates",)), np.zeros(self.n_choices))
+        window, logged_usage = self._log_window  # the choices since the last logged window
         sb3_output = self._sb3_output()
         interval = self.recorder.log_interval if self.recorder else self.log_interval
         next_log = next_log_step(start_steps, interval)
