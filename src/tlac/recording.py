@@ -258,8 +258,9 @@ class EpisodeRecorder(VecEnvWrapper):
             new = not path.exists()
             self._files.append(open(path, "a", newline=""))  # noqa: SIM115 - closed in close()
             self._writer = csv.writer(self._files[0])
-            if new:
+            if new:  # on disk at once: a run killed before its first episode keeps it
                 self._writer.writerow(["timestep", "return", "length"])
+                self._files[0].flush()
             self._monitor = self._open_monitor(path.with_name(MONITOR_FILE))
 
     def _open_monitor(self, path: Path) -> Any:
@@ -376,8 +377,9 @@ class Recorder:
         new = not path.exists()
         f = open(path, "a", newline="")  # noqa: SIM115 - closed in close()
         w = csv.writer(f)
-        if new:
+        if new:  # on disk at once: a run killed before its first log keeps it
             w.writerow(header)
+            f.flush()
         return f, w
 
     def window_end_after(self, timestep: int) -> int:
