@@ -83,6 +83,8 @@ def main() -> int:
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     log = (work / "log.txt").open("w")
 
+    git = ["git", "rev-parse", "--short", "HEAD"]  # the code the runs start with
+    commit = subprocess.run(git, capture_output=True, text=True, check=False).stdout.strip()
     t0 = time.time()
     reference = subprocess.Popen(
         tlac("train", *common, "--out", str(straight)), env=env, stdout=log, stderr=log
@@ -136,7 +138,6 @@ def main() -> int:
     extra = sorted({p.name for p in broken.iterdir()} - {p.name for p in straight.iterdir()})
     same &= not extra
     result = json.loads((straight / "result.json").read_text())
-    commit = subprocess.run(
         ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True
     ).stdout.strip()
     report = [
