@@ -138,8 +138,6 @@ def main() -> int:
     extra = sorted({p.name for p in broken.iterdir()} - {p.name for p in straight.iterdir()})
     same &= not extra
     result = json.loads((straight / "result.json").read_text())
-        ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True
-    ).stdout.strip()
     report = [
         f"# Exact resume soak: {args.steps:,} DoorKey steps, {args.kills} kill -9 / resume cycles",
         "",
