@@ -103,7 +103,7 @@ def test_a2c_normalize_wraps_vecnormalize_and_predicts_from_saved_statistics(tmp
     obs = np.stack([env.observation_space.sample() for _ in range(4)])
     expected = model.model.predict(venv.normalize_obs(obs), deterministic=True)[0]
     np.testing.assert_array_equal(model.predict(obs, deterministic=True)[0], expected)
-    loaded = A2CBaseline.load(model.save(tmp_path / "a2c"))
+    loaded = A2CBaseline.load(model.save(tmp_path / "a2c"), trust_pickle=True)
     np.testing.assert_allclose(loaded.predict(obs, deterministic=True)[0], expected, rtol=1e-6)
     with pytest.raises(ConfigError, match="normalize must be true or false"):
         A2CBaseline.check_hyperparameters({"normalize": "yes"})

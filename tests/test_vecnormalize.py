@@ -62,13 +62,21 @@ def test_a_normalised_teacher_sees_what_its_agent_was_trained_on(normalized_agen
     # from files, and from an rl-zoo run folder (logs/ppo/CartPole-v1_1/...)
     model.save(tmp_path / "agent.zip")
     venv.save(tmp_path / "stats.pkl")
-    teacher = from_sb3(tmp_path / "agent.zip", tmp_path / "stats.pkl", algo="ppo")
+    with pytest.raises(ConfigError, match="trust_pickle=True"):  # pickles: opt in
+        from_sb3(tmp_path / "agent.zip", algo="ppo")
+    with pytest.raises(ConfigError, match="trust_pickle=True"):
+        from_sb3(model, tmp_path / "stats.pkl")
+    teacher = from_sb3(
+        tmp_path / "agent.zip", tmp_path / "stats.pkl", algo="ppo", trust_pickle=True
+    )
     assert np.array_equal(teacher.predict(obs), expected)
     run = tmp_path / "ppo" / "CartPole-v1_1"
     (run / "CartPole-v1").mkdir(parents=True)
     model.save(run / "CartPole-v1.zip")
     venv.save(run / "CartPole-v1" / "vecnormalize.pkl")
-    zoo = from_rl_zoo(run)
+    with pytest.raises(ConfigError, match="trust_pickle=True"):
+        from_rl_zoo(run)
+    zoo = from_rl_zoo(run, trust_pickle=True)
     assert zoo.name == "ppo-CartPole-v1" and np.array_equal(zoo.predict(obs), expected)
     elsewhere = tmp_path / "models" / "CartPole-v1_1"
     elsewhere.mkdir(parents=True)
@@ -76,7 +84,7 @@ def test_a_normalised_teacher_sees_what_its_agent_was_trained_on(normalized_agen
         from_rl_zoo(elsewhere)
     (tmp_path / "junk.pkl").write_bytes(b"not a pickle")
     with pytest.raises(ConfigError, match="not a saved VecNormalize"):
-        from_sb3(model, tmp_path / "junk.pkl")
+        from_sb3(model, tmp_path / "junk.pkl", trust_pickle=True)
 
 
 def test_tlac_under_a_users_vecnormalize(tmp_path):

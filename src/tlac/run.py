@@ -383,6 +383,9 @@ def _keep_rows_until(path: Path, last_step: int) -> None:
         return
     data = path.read_bytes()
     lines = data[: data.rfind(b"\n") + 1].splitlines(keepends=True)  # bytes: \r\n stays
+    if not lines:  # not even its header: its writer starts it again
+        path.unlink()
+        return
     kept = lines[:1]
     for number, line in enumerate(lines[1:], start=2):
         try:
@@ -594,7 +597,7 @@ def _deploy_best(
     if best[1] == last_step:
         for name in _model_files(out, LAST_MODEL):
             (out / name).unlink()
-    model = get_algorithm(spec.algo).load(out / "model")
+    model = load_run_model(out, spec.algo, trust_pickle=True)  # the file this process wrote
     returns = evaluate_student(model, domain, spec.eval_episodes, seed=30_000 + spec.seed)
     fields: dict[str, Any] = {
         "final_eval_mean": float(returns.mean()),
@@ -606,6 +609,13 @@ def _deploy_best(
     if kept is not None:
         fields["student_kept_from_step"] = int(kept.num_timesteps)
     return fields
+
+
+def load_run_model(run: Path, algo: str, trust_pickle: bool = False) -> Any:
+    """The model of the run folder ``run``: tlac's ``model.pt`` (plain data and tensors, read
+    with ``weights_only=True``) or the SB3 baselines' ``model.zip``, whose pickles can run code
+    when loaded: opened only with ``trust_pickle`` (``tlac eval --trust-pickle``)."""
+    return get_algorithm(algo).load(run / "model", trust_pickle=trust_pickle)
 
 
 def load_run_config(run_dir: str | Path) -> dict[str, Any]:

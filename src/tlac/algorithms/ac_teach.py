@@ -792,6 +792,7 @@ class ACTeach(SB3Compat):
         env: VecEnv | None = None,
         teachers: list[Any] | None = None,
         resume: bool = False,
+        trust_pickle: bool = False,
     ) -> ACTeach:
         """Rebuild a model written by :meth:`save`; pass ``env`` and the same teachers to
         continue training (the replay buffer starts empty). ``resume``: restore the training

@@ -382,6 +382,7 @@ class DQNTLQL(SB3Compat):
         env: VecEnv | None = None,
         teachers: list[Any] | None = None,
         resume: bool = False,
+        trust_pickle: bool = False,
     ) -> DQNTLQL:
         """Rebuild a model written by :meth:`save`; pass ``env`` (and the same teachers) to
         continue training. ``resume``: restore the training state of a file saved with

@@ -65,9 +65,12 @@ class Algorithm(Protocol):
         env: Any = None,
         teachers: Any = None,
         resume: bool = False,
+        trust_pickle: bool = False,
     ) -> Any:
         """Rebuild a model written by :meth:`save`; pass ``env`` (and the teachers) to train
-        on. ``resume``: restore the training state too (ConfigError where there is none)."""
+        on. ``resume``: restore the training state too (ConfigError where there is none).
+        ``trust_pickle``: required to open a format that holds pickles (SB3's zip, which can
+        run code when loaded); tlac's own files hold none and ignore it."""
         ...
 
 

@@ -47,6 +47,7 @@ from tlac.errors import ConfigError
 from tlac.memory import FLOAT_BYTES, check_fits, mlp_params, network_bytes
 from tlac.presets import Schedule, make_schedule
 from tlac.recording import Recorder
+from tlac.teachers.sb3 import check_trust_pickle
 from tlac.validation import Checks, check_plain_numbers
 
 ContractCallback = Callable[[Any], "bool | None"]
@@ -384,10 +385,12 @@ class _SB3Baseline:
         env: VecEnv | None = None,
         teachers: list[Any] | None = None,
         resume: bool = False,
+        trust_pickle: bool = False,
     ) -> _SB3Baseline:
         """Load a model written by :meth:`save` (``path`` with or without ``.zip``);
         ``teachers`` must be empty (a no-advice baseline), and ``resume`` is refused (SB3's
-        file holds no training state)."""
+        file holds no training state). SB3's zip holds pickles, which can run code when
+        loaded: ``trust_pickle=True`` is required (``tlac eval --trust-pickle``)."""
         if resume:
             raise ConfigError(
                 f"{cls.name} cannot resume exactly (resume=True): its file holds no training state"
@@ -399,6 +402,7 @@ class _SB3Baseline:
             p = p.with_name(p.name + ".zip")
         if not p.exists():
             raise ConfigError(f"no {cls.name} model at {str(p)!r}")
+        check_trust_pickle(p, trust_pickle)
         obj = cls.__new__(cls)
         obj.hyperparameters, obj.seed, obj.recorder = {}, 0, None
         obj._target_kl_schedule = None

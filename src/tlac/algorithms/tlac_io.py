@@ -339,6 +339,7 @@ class TLACPersistence:
         env: Any = None,
         teachers: Sequence[Any] | None = None,
         resume: bool = False,
+        trust_pickle: bool = False,
     ) -> _Model:
         """Load a saved model. Pass ``env`` (and, to train on with advice, the same number of
         ``teachers`` as at save time) to continue training; ``predict`` needs neither.
@@ -349,7 +350,8 @@ class TLACPersistence:
         clip range...) of the call that was interrupted, so a run resumed with its remaining
         steps follows the same schedules as an uninterrupted one. The episodes in progress are
         re-created in ``env``'s environments (:mod:`tlac.algorithms.resume`). Loading, with or
-        without ``resume``, runs no code from the file (``torch.load(weights_only=True)``)."""
+        without ``resume``, runs no code from the file (``torch.load(weights_only=True)``), so
+        ``trust_pickle`` (the contract's, for SB3's zips) changes nothing."""
         path = Path(path)
         if not path.exists() and path.with_name(path.name + ".pt").exists():
             path = path.with_name(path.name + ".pt")

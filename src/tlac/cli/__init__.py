@@ -171,10 +171,11 @@ def _print_result(result: dict[str, Any], eval_episodes: int, out: Path) -> None
 def _cmd_eval(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from tlac.algorithms import get_algorithm
     from tlac.domains import get_domain, make_teachers
     from tlac.evaluation import evaluate_policy
-    from tlac.run import load_run_config
+    from tlac.experiments.config import domain_file
+    from tlac.run import load_run_config, load_run_model
+    from tlac.teachers.sb3 import check_trust_pickle
 
     config = load_run_config(args.run_dir)
     run = Path(args.run_dir)
@@ -182,8 +183,17 @@ def _cmd_eval(args: argparse.Namespace) -> int:
         raise ConfigError(
             f"{str(run)!r} has no trained model (model.pt / model.zip): the run did not finish"
         )
+    if isinstance(config["env"], str) and domain_file(config["env"]) is not None:
+        raise ConfigError(
+            f"{str(run)!r} was trained on the domain file {config['env']!r}: tlac eval imports "
+            "no domain file (importing one runs its code; only training commands do); "
+            "evaluate it from Python, where you import the domain yourself "
+            "(tlac.evaluation.evaluate_policy)"
+        )
+    if not (run / "model.pt").exists():  # an SB3 baseline's model.zip: a pickle
+        check_trust_pickle(run / "model.zip", args.trust_pickle, "--trust-pickle")
     domain = get_domain(config["env"])
-    model = get_algorithm(config["algo"]).load(run / "model")
+    model = load_run_model(run, config["algo"], trust_pickle=args.trust_pickle)
     seed = args.seed
     returns = evaluate_policy(
         lambda o: model.predict(o, deterministic=not args.stochastic)[0],
@@ -356,6 +366,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--stochastic", action="store_true", help="sample the student's actions (default: greedy)"
     )
     ev.add_argument("--json", action="store_true", help="print one JSON object")
+    ev.add_argument(
+        "--trust-pickle",
+        action="store_true",
+        help="open an SB3 baseline's model.zip (A2C, PPO): its pickles can run code when "
+        "loaded, so only for a run you trust",
+    )
     ev.set_defaults(func=_cmd_eval)
 
     envs = sub.add_parser("envs", help="list the domains, their teachers and regions")

@@ -53,6 +53,12 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
     )
     train.add_argument("--eval-episodes", type=positive_int, default=100)
     train.add_argument("--no-progress", action="store_true", help="no progress bar")
+    train.add_argument(
+        "--trust-pickle",
+        action="store_true",
+        help="continue from the SB3 checkpoint in --work-dir: its pickles can run code when "
+        "loaded, so only for a checkpoint you made",
+    )
     train.set_defaults(func=_train)
 
     ev = sub.add_parser(
@@ -92,6 +98,7 @@ def _train(args: argparse.Namespace) -> int:
         eval_episodes=args.eval_episodes,
         time_limit_s=args.time_limit,
         command=command,
+        trust_pickle=args.trust_pickle,
     )
     return 0
 

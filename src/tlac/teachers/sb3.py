@@ -9,8 +9,9 @@ carry its statistics: :func:`from_sb3` and :func:`from_rl_zoo` build one that no
 observation with them (frozen: a teacher is never trained) before asking the agent.
 
 Loading an SB3 ``.zip`` or a ``vecnormalize.pkl`` unpickles Python objects, which can run code:
-load only files you trust. These functions are the explicit way to do it; nothing in tlac opens
-such a file on its own.
+load only files you trust. These functions open such a file only when told so
+(``trust_pickle=True``; on the command line ``--trust-pickle``), and nothing in tlac opens one
+on its own (:func:`check_trust_pickle`).
 """
 
 from __future__ import annotations
@@ -51,6 +52,20 @@ class FrozenObsNormalization:
         return np.clip((obs - self.mean) / self.std, -self.clip, self.clip).astype(np.float32)
 
 
+def check_trust_pickle(
+    path: str | Path, trust_pickle: bool, how: str = "trust_pickle=True"
+) -> None:
+    """Refuse to open the stable-baselines3 file ``path`` unless ``trust_pickle``: its pickled
+    objects can run any code when loaded. ``how``: the opt-in the error names
+    (``--trust-pickle`` on the command line)."""
+    if not trust_pickle:
+        raise ConfigError(
+            f"{str(path)!r} is a stable-baselines3 file: loading it unpickles Python objects, "
+            f"which can run any code, so tlac opens one only when told to; pass {how} if you "
+            "trust the file (one you made yourself)"
+        )
+
+
 def sb3_class(algo: str) -> Any:
     """The stable-baselines3 class of ``algo`` (one of :data:`SB3_CLASSES`)."""
     import stable_baselines3
@@ -60,15 +75,16 @@ def sb3_class(algo: str) -> Any:
     return getattr(stable_baselines3, algo.upper())
 
 
-def load_vec_normalize(path: str | Path) -> Any:
+def load_vec_normalize(path: str | Path, trust_pickle: bool = False) -> Any:
     """SB3's saved ``VecNormalize`` (``vec_normalize.save(path)``, rl-zoo's
     ``vecnormalize.pkl``) without an environment: only its statistics are used. Unpickles the
-    file: trusted files only."""
+    file, so ``trust_pickle=True`` is required: trusted files only."""
     from stable_baselines3.common.vec_env import VecNormalize
 
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"VecNormalize statistics {str(path)!r}: no such file")
+    check_trust_pickle(path, trust_pickle)
     with path.open("rb") as f:
         try:
             vec_normalize = pickle.load(f)  # noqa: S301 - the caller's explicit, documented opt-in
@@ -90,10 +106,12 @@ def from_sb3(
     algo: str = "ppo",
     name: str | None = None,
     deterministic: bool = True,
+    trust_pickle: bool = False,
 ) -> Any:
     """A teacher from an SB3 agent: ``model`` is a loaded SB3 model or the path of its
     ``.zip`` (loaded as ``algo``); ``vec_normalize`` is its ``VecNormalize`` (an object, or the
-    path of its saved statistics), or None for an agent trained on raw observations.
+    path of its saved statistics), or None for an agent trained on raw observations. Opening
+    a file unpickles it: pass ``trust_pickle=True`` for files you trust (else ConfigError).
 
     >>> import gymnasium as gym
     >>> from stable_baselines3 import PPO
@@ -107,20 +125,23 @@ def from_sb3(
         path = Path(model)
         if not path.is_file():
             raise ConfigError(f"SB3 model {str(path)!r}: no such file")
+        check_trust_pickle(path, trust_pickle)
         model = sb3_class(algo).load(str(path), device="cpu")
     label = name or type(model).__name__.lower()
     if vec_normalize is None:
         return SB3Teacher(model, label, deterministic)
     if isinstance(vec_normalize, str | Path):
-        vec_normalize = load_vec_normalize(vec_normalize)
+        vec_normalize = load_vec_normalize(vec_normalize, trust_pickle)
     return SB3Teacher(model, label, deterministic, FrozenObsNormalization(vec_normalize, label))
 
 
-def from_rl_zoo(folder: str | Path, algo: str | None = None, name: str | None = None) -> Any:
+def from_rl_zoo(
+    folder: str | Path, algo: str | None = None, name: str | None = None, trust_pickle: bool = False
+) -> Any:
     """A teacher from an rl-baselines3-zoo run folder (``logs/<algo>/<EnvId>_<n>/``): its
     ``<EnvId>.zip`` (else ``best_model.zip``) and, when the run normalised, its
     ``<EnvId>/vecnormalize.pkl``. ``algo``: the SB3 class (default: the parent folder's name,
-    as rl-zoo lays runs out)."""
+    as rl-zoo lays runs out). Both files are pickles: ``trust_pickle=True`` is required."""
     folder = Path(folder)
     if not folder.is_dir():
         raise ConfigError(f"rl-zoo run folder {str(folder)!r}: no such folder")
@@ -139,5 +160,9 @@ def from_rl_zoo(folder: str | Path, algo: str | None = None, name: str | None = 
         )
     stats = folder / env_id / "vecnormalize.pkl"
     return from_sb3(
-        model, stats if stats.is_file() else None, algo=algo, name=name or f"{algo}-{env_id}"
+        model,
+        stats if stats.is_file() else None,
+        algo=algo,
+        name=name or f"{algo}-{env_id}",
+        trust_pickle=trust_pickle,
     )

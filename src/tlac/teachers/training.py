@@ -25,6 +25,7 @@ import numpy as np
 
 from tlac.errors import ConfigError
 from tlac.recording import installed_versions
+from tlac.teachers.sb3 import check_trust_pickle
 
 SAC_HYPERPARAMS: dict[str, dict[str, Any]] = {
     # rl-baselines3-zoo's SAC settings for HopperBulletEnv-v0 (gSDE), but [128, 128] instead
@@ -180,12 +181,14 @@ def train_teacher(
     eval_episodes: int = 100,
     time_limit_s: float | None = None,
     command: str | None = None,
+    trust_pickle: bool = False,
 ) -> dict[str, Any]:
     """Train SAC on ``env_name`` for ``steps`` environment steps and export the actor.
 
     ``work_dir`` (default ``runs/teachers/<env>-seed<seed>``) holds the checkpoint
     (``checkpoint.zip`` + ``replay_buffer.pkl`` + ``state.json``), refreshed every 10k
-    steps; if it exists, training resumes from it. ``time_limit_s`` stops training early
+    steps; if it exists, training resumes from it, and as SB3's files are pickles (they can run
+    code when loaded) only with ``trust_pickle=True`` (``--trust-pickle``). ``time_limit_s`` stops training early
     (at the next step after the limit) and still evaluates and exports what was reached;
     the metadata records the steps actually taken. Returns the metadata dict.
     """
@@ -209,6 +212,7 @@ def train_teacher(
             eval_episodes,
             time_limit_s,
             command,
+            trust_pickle,
         )
     import torch
     from stable_baselines3 import SAC
@@ -233,6 +237,7 @@ def train_teacher(
     hp = copy.deepcopy(SAC_HYPERPARAMS[env_name])  # SB3 mutates policy_kwargs
     state: dict[str, Any] = {"wall_s": 0.0}
     if ckpt.is_file():
+        check_trust_pickle(ckpt, trust_pickle, "--trust-pickle (trust_pickle=True)")
         model = SAC.load(ckpt, env=env, device="cpu")
         if buf.is_file():
             model.load_replay_buffer(buf)
@@ -326,6 +331,7 @@ def train_ppo_teacher(
     eval_episodes: int = 1000,
     time_limit_s: float | None = None,
     command: str | None = None,
+    trust_pickle: bool = False,
 ) -> dict[str, Any]:
     """Train SB3 PPO for DoorKey's teacher (see :func:`train_teacher`, which calls this), on
     MiniGrid's partial view, checkpointing every 10k steps (a rerun resumes), then export the
@@ -360,6 +366,7 @@ def train_ppo_teacher(
     hp = copy.deepcopy(PPO_HYPERPARAMS[env_name])
     state: dict[str, Any] = {"wall_s": 0.0}
     if ckpt.is_file():
+        check_trust_pickle(ckpt, trust_pickle, "--trust-pickle (trust_pickle=True)")
         model = PPO.load(ckpt, env=env, device="cpu")
         if state_path.is_file():
             state = json.loads(state_path.read_text())
