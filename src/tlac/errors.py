@@ -26,6 +26,11 @@ class TrainingError(TlacError):
     """Training diverged (a non-finite loss or gradient); the run stops and is not finished."""
 
 
+class StorageError(TlacError):
+    """A folder tlac writes cannot be written: the disk is full, the file system read-only, a
+    file size limit reached, or the permission missing."""
+
+
 class TeacherError(TlacError):
     """A teacher returned an action that is not a valid member of the action space."""
 
@@ -81,6 +86,66 @@ def read_yaml_file(path: object, what: str) -> object:
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(f"cannot read {what} {str(p)!r}: {exc}") from None
     try:
-        return yaml.safe_load(text)
+        return strict_yaml_load(text, repr(str(p)))
     except yaml.YAMLError as exc:
         raise ConfigError(f"{str(p)!r}: not valid YAML ({yaml_problem(exc)})") from None
+    except RecursionError:
+        raise ConfigError(f"{str(p)!r}: nested too deeply to be a tlac file") from None
+
+
+MAX_YAML_VALUES = 1_000_000
+"""The most values a tlac YAML file may expand to, its aliases followed (a 'billion laughs'
+document is a few lines that expand to 10**9)."""
+
+
+def strict_yaml_load(text: str, where: str) -> object:
+    r"""``yaml.safe_load`` that refuses, as a ConfigError naming ``where`` and the line, a key
+    given twice in one mapping (safe_load keeps the last silently) and a document whose aliases
+    expand to more than :data:`MAX_YAML_VALUES` values.
+
+    >>> strict_yaml_load("steps: 5\nseeds: 2\nsteps: 6\n", "x.yaml")
+    Traceback (most recent call last):
+    tlac.errors.ConfigError: x.yaml: line 3: key 'steps' is given twice (first on line 1); give each key once
+    """
+    import yaml
+
+    loader = yaml.SafeLoader(text)
+    try:
+        node = loader.get_single_node()
+        if node is None:
+            return None
+        _check_yaml_node(node, where, {})
+        return loader.construct_document(node)
+    finally:
+        loader.dispose()
+
+
+def _check_yaml_node(node: object, where: str, sizes: dict[int, int]) -> int:
+    """The number of values ``node`` expands to (aliases followed: a shared node is counted
+    once per use, computed once), checking each mapping's keys are distinct."""
+    import yaml
+
+    if id(node) in sizes:
+        return sizes[id(node)]
+    size = 1
+    if isinstance(node, yaml.MappingNode):
+        first: dict[str, int] = {}
+        for key, value in node.value:
+            if isinstance(key, yaml.ScalarNode) and key.tag != "tag:yaml.org,2002:merge":
+                line = key.start_mark.line + 1
+                if key.value in first:
+                    raise ConfigError(
+                        f"{where}: line {line}: key {key.value!r} is given twice (first on line "
+                        f"{first[key.value]}); give each key once"
+                    )
+                first[key.value] = line
+            size += _check_yaml_node(key, where, sizes) + _check_yaml_node(value, where, sizes)
+    elif isinstance(node, yaml.SequenceNode):
+        size += sum(_check_yaml_node(item, where, sizes) for item in node.value)
+    if size > MAX_YAML_VALUES:
+        raise ConfigError(
+            f"{where}: its aliases expand to more than {MAX_YAML_VALUES:,} values; write the "
+            "values out rather than nesting aliases"
+        )
+    sizes[id(node)] = size
+    return size

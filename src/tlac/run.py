@@ -30,7 +30,7 @@ from filelock import FileLock, Timeout
 from tlac.algorithms import NO_ADVICE, get_algorithm
 from tlac.algorithms.common import check_seed, safe_torch_load
 from tlac.domains import Domain, get_domain, make_teachers, make_vec_env, parse_teacher_spec
-from tlac.errors import ConfigError, UnknownNameError, read_yaml_file
+from tlac.errors import ConfigError, StorageError, UnknownNameError, read_yaml_file
 from tlac.evaluation import evaluate_student
 from tlac.presets import SCHEDULE_HORIZON, load_preset, stretch_schedules
 from tlac.recording import MONITOR_FILE, Recorder, platform_record
@@ -259,6 +259,8 @@ def folder_lock(lock_file: Path, busy: str) -> Iterator[None]:
         lock.acquire(timeout=0)
     except Timeout:
         raise ConfigError(busy) from None
+    except OSError as exc:  # a read-only folder, or one this user may not write
+        raise StorageError(f"cannot write {str(lock_file.parent)!r}: {exc.strerror}") from None
     try:
         yield
     finally:
@@ -342,6 +344,10 @@ def train_run(
         if created and not (out / CHECKPOINT).exists():
             shutil.rmtree(out, ignore_errors=True)
         raise
+    except OSError as exc:
+        if exc.errno not in STORAGE_ERRNOS:
+            raise
+        raise storage_error(out, exc, spec.algo) from None
 
 
 def resume_run(
@@ -368,10 +374,37 @@ def resume_run(
     spec.teachers = config.get("teacher_kinds", spec.teachers)
     domain = spec.validate()
     hp = hyperparameters(spec)
-    with folder_lock(out / LOCK_FILE, f"{str(out)!r} is in use by another tlac process"):
-        return _train_locked(
-            spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, meta=meta
-        )
+    try:
+        with folder_lock(out / LOCK_FILE, f"{str(out)!r} is in use by another tlac process"):
+            return _train_locked(
+                spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, meta=meta
+            )
+    except OSError as exc:
+        if exc.errno not in STORAGE_ERRNOS:
+            raise
+        raise storage_error(out, exc, spec.algo) from None
+
+
+STORAGE_ERRNOS = frozenset(
+    {errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS, errno.EACCES, errno.EPERM}
+)
+"""The OSErrors that mean a folder cannot be written (disk full, a file size limit, a
+read-only file system, no permission)."""
+
+
+def storage_error(out: Path, exc: OSError, algo: str) -> StorageError:
+    """A run folder that could not be written as one :class:`StorageError` naming the file,
+    the reason and how the run continues."""
+    where = exc.filename or out
+    then = (
+        f"tlac train --resume {out} continues from its last checkpoint"
+        if getattr(get_algorithm(algo), "exact_resume", False) and (out / CHECKPOINT).exists()
+        else "the same tlac train command starts it again"
+    )
+    return StorageError(
+        f"cannot write {str(where)!r}: {exc.strerror}; the run stopped unfinished: once the "
+        f"folder can be written, {then}"
+    )
 
 
 def _keep_rows_until(path: Path, last_step: int) -> None:

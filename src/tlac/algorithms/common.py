@@ -3,6 +3,8 @@ target networks, and the truncation-aware next observation."""
 
 from __future__ import annotations
 
+import contextlib
+import os
 import sys
 import warnings
 from collections import OrderedDict
@@ -297,9 +299,28 @@ def atomic_torch_save(data: Any, path: Path) -> Path:
     the same bytes. Returns ``path``."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
-    torch.save(canonical_data(data), tmp)
+    try:
+        torch.save(canonical_data(data), tmp)
+    except RuntimeError:  # torch's zip writer hides the file system's reason: ask it again
+        _raise_write_error(tmp)
+        raise
     tmp.replace(path)
     return path
+
+
+def _raise_write_error(tmp: Path) -> None:
+    """After torch failed to write ``tmp``: raise the OSError the file system gives for a
+    write there (disk full, a file size limit, a read-only folder), the partial file removed;
+    return when a write succeeds (then the failure was not the file system's)."""
+    try:
+        with open(tmp, "ab") as f:
+            f.write(b"\0")
+            f.flush()
+            os.fsync(f.fileno())
+    except OSError as exc:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise OSError(exc.errno, exc.strerror, str(tmp)) from None
 
 
 def safe_torch_load(path: Path, what: str) -> Any:

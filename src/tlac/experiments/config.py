@@ -32,6 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from tlac.algorithms import NO_ADVICE, algorithm_names
+from tlac.algorithms.common import MAX_SEED
 from tlac.domains import domain_names, get_domain
 from tlac.errors import ConfigError, TlacError, read_yaml_file
 from tlac.presets import load_preset, preset_names
@@ -237,6 +238,11 @@ class ExperimentConfig:
         raise KeyError(key)
 
 
+MAX_SEEDS = 10_000
+"""The most seeds an experiment file may ask for (each one is a run per teacher set and
+algorithm): ``seeds: 100000000`` is refused rather than expanded."""
+
+
 class _Fields(Checks):
     """The checks of an experiment file (:class:`tlac.validation.Checks`, messages
     ``<file>: field '<path>': <problem>``) and the shapes only files have: mappings with
@@ -286,12 +292,20 @@ class _Fields(Checks):
 
     def seeds(self, path: str, value: Any) -> tuple[int, ...]:
         if isinstance(value, int) and not isinstance(value, bool):
-            return tuple(range(self.integer(path, value, 1)))
-        if not isinstance(value, list) or not value:
+            count = self.integer(path, value, 1)
+            if count > MAX_SEEDS:
+                raise self.error(path, f"a number of seeds from 1 to {MAX_SEEDS}", value)
+            return tuple(range(count))
+        if not isinstance(value, list) or not value or len(value) > MAX_SEEDS:
             raise self.problem(
-                path, f"expected a number of seeds or a non-empty list of seeds, got {value!r}"
+                path,
+                f"expected a number of seeds or a non-empty list of at most {MAX_SEEDS} seeds, "
+                f"got {str(value)[:60]}",
             )
         seeds = tuple(self.integer(f"{path}[{i}]", s, 0) for i, s in enumerate(value))
+        for i, seed in enumerate(seeds):
+            if seed > MAX_SEED:
+                raise self.error(f"{path}[{i}]", f"a seed from 0 to {MAX_SEED}", seed)
         if len(set(seeds)) != len(seeds):
             raise self.problem(path, f"seeds must be distinct, got {list(seeds)}")
         return seeds

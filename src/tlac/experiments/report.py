@@ -23,10 +23,11 @@ from typing import TYPE_CHECKING, Any
 
 import yaml
 
+from tlac.errors import StorageError
 from tlac.experiments import markdown as md
 from tlac.experiments import tables as T
 from tlac.experiments.markdown import fmt, fmt_mean_std
-from tlac.experiments.rundata import RunData, load_experiment, read_experiment
+from tlac.experiments.rundata import Experiment, RunData, load_experiment, read_experiment
 from tlac.experiments.tables import algorithm_label, final_window, summarize
 
 if TYPE_CHECKING:
@@ -91,10 +92,20 @@ def write_report(out_dir: str | Path, paper: bool = False) -> Path:
     import matplotlib
 
     matplotlib.use("Agg")
-    from tlac.experiments import figures as F
-
     out = Path(out_dir)
     exp = read_experiment(out)
+    try:
+        return _write_report(out, exp, paper)
+    except OSError as exc:  # a read-only folder, a full disk, report.md a folder
+        raise StorageError(
+            f"cannot write the report into {str(out)!r}: {exc.filename or out}: {exc.strerror}"
+        ) from None
+
+
+def _write_report(out: Path, exp: Experiment, paper: bool) -> Path:
+    """:func:`write_report` once the experiment is read: every file it writes."""
+    from tlac.experiments import figures as F
+
     c = exp.config
     paper_data = load_paper_results() if paper else None
     save = _FigureWriter(out)

@@ -20,7 +20,7 @@ from tlac.errors import ConfigError, read_yaml_file
 from tlac.experiments.archive import RunStore
 from tlac.experiments.config import NO_TEACHERS, ExperimentConfig, parse_config
 from tlac.experiments.grid import ERROR_FILE, GridRun, expand_grid
-from tlac.experiments.runner import EXPERIMENT_FILE, TEACHERS_FILE
+from tlac.experiments.runner import EXPERIMENT_FILE, TEACHERS_FILE, read_teachers
 from tlac.run import RESULT_FILE
 
 EPISODES_FILE = "episodes.csv"
@@ -157,8 +157,7 @@ def read_experiment(out_dir: str | Path) -> Experiment:
     config = parse_config(read_yaml_file(cfg_path, "experiment file"), str(cfg_path))
     store = RunStore(out)
     runs = [read_run(store, r) for r in expand_grid(config)]
-    teachers_path = out / TEACHERS_FILE
-    teachers = json.loads(teachers_path.read_text()) if teachers_path.exists() else {}
+    teachers = read_teachers(out / TEACHERS_FILE)
     return Experiment(config, runs, teachers)
 
 

@@ -226,12 +226,34 @@ def dir_lock(out: Path) -> Iterator[None]:
         yield
 
 
+def read_teachers(path: Path) -> dict[str, Any]:
+    """``DIR/teachers.json`` (empty when absent): a JSON object of teacher name -> ``{mean,
+    std, episodes}`` or ``{error}``; anything else is one ConfigError naming the file."""
+    if not path.exists():
+        return {}
+    expected = "expected a JSON object of teacher name -> {mean, std, episodes}"
+    try:
+        data = json.loads(path.read_bytes())
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"{str(path)!r}: not readable JSON ({exc}); {expected}") from None
+    if not isinstance(data, dict) or not all(isinstance(v, dict) for v in data.values()):
+        raise ConfigError(f"{str(path)!r}: {expected}, got {str(data)[:60]!r}")
+    for name, info in data.items():
+        for key in ("mean", "std"):
+            value = info.get(key)
+            if value is not None and (
+                isinstance(value, bool) or not isinstance(value, int | float)
+            ):
+                raise ConfigError(f"{str(path)!r}: {name}.{key} must be a number, got {value!r}")
+    return data
+
+
 def evaluate_teachers(config: ExperimentConfig, out: Path) -> dict[str, Any]:
     """Each teacher's own return (``teacher_eval_episodes`` episodes, acting alone), written to
     ``DIR/teachers.json``: the reference lines of the learning-curve plots (paper, Figures 3-9).
     Kinds already measured are kept; a teacher that cannot be built is recorded with its error."""
     path = out / TEACHERS_FILE
-    data: dict[str, Any] = json.loads(path.read_text()) if path.exists() else {}
+    data = read_teachers(path)
     kinds = sorted({t for ts in config.teacher_sets for t in ts.teachers})
     todo = [k for k in kinds if k not in data or "error" in data[k]]
     if not todo or config.teacher_eval_episodes == 0:
