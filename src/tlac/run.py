@@ -127,14 +127,21 @@ class RunSpec:
                 f"--selector {self.selector} replaces TL-AC's high level; {self.algo} has none "
                 "(use it with --algo tlac)"
             )
-        if self.eval_every is not None and self.eval_every <= 0:
+        if self.eval_every is not None and not _is_int(self.eval_every, 1):
             raise ConfigError(
                 f"eval_every must be a positive number of steps, got {self.eval_every!r}"
             )
-        if self.eval_episodes < 0:
-            raise ConfigError(f"eval_episodes must be >= 0, got {self.eval_episodes!r}")
-        if self.log_interval <= 0:
-            raise ConfigError(f"log_interval must be positive, got {self.log_interval!r}")
+        if not _is_int(self.eval_episodes, 0):
+            raise ConfigError(f"eval_episodes must be an integer >= 0, got {self.eval_episodes!r}")
+        if not _is_int(self.log_interval, 1):
+            raise ConfigError(f"log_interval must be a positive integer, got {self.log_interval!r}")
+        if self.teachers is not None and (
+            not isinstance(self.teachers, list | tuple)
+            or not all(isinstance(t, str) for t in self.teachers)
+        ):
+            raise ConfigError(f"teachers must be a list of teacher names, got {self.teachers!r}")
+        if not isinstance(self.overrides, dict):
+            raise ConfigError(f"overrides must be a mapping of settings, got {self.overrides!r}")
         if not isinstance(self.keep_best, bool):
             raise ConfigError(f"keep_best must be true or false, got {self.keep_best!r}")
         if self.keep_best and (self.eval_every is None or self.eval_episodes == 0):
@@ -145,6 +152,10 @@ class RunSpec:
         for name in self.resolved_teachers(domain):
             parse_teacher_spec(domain, name)
         return domain
+
+
+def _is_int(value: Any, minimum: int) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= minimum
 
 
 def check_in_process(hp: dict[str, Any]) -> None:
@@ -372,8 +383,11 @@ def resume_run(
     fields = {f.name for f in dataclasses.fields(RunSpec)}
     spec = RunSpec(**{k: v for k, v in config.items() if k in fields})
     spec.teachers = config.get("teacher_kinds", spec.teachers)
-    domain = spec.validate()
-    hp = hyperparameters(spec)
+    try:
+        domain = spec.validate()
+        hp = hyperparameters(spec)
+    except ConfigError as exc:  # config.yaml edited by hand: say which file
+        raise ConfigError(f"{str(out / 'config.yaml')!r}: {exc}") from None
     try:
         with folder_lock(out / LOCK_FILE, f"{str(out)!r} is in use by another tlac process"):
             return _train_locked(

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import shlex
 import sys
 import time
@@ -79,8 +80,10 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
 def _train(args: argparse.Namespace) -> int:
     from tlac.teachers.training import train_teacher
 
-    if args.time_limit is not None and args.time_limit <= 0:
-        raise ConfigError(f"--time-limit must be > 0 seconds, got {args.time_limit}")
+    if args.time_limit is not None and not 0 < args.time_limit < math.inf:  # NaN too
+        raise ConfigError(
+            f"--time-limit must be a finite number of seconds > 0, got {args.time_limit}"
+        )
     # Record the command line as typed (from "train" on), for the metadata file.
     argv = sys.argv[1:]
     if "train" in argv:
