@@ -355,6 +355,8 @@ def train_run(
         if created and not (out / CHECKPOINT).exists():
             shutil.rmtree(out, ignore_errors=True)
         raise
+    except StorageError as exc:  # a model or checkpoint that could not be saved
+        raise StorageError(f"{exc}; {_how_to_continue(out, spec.algo)}") from None
     except OSError as exc:
         if exc.errno not in STORAGE_ERRNOS:
             raise
@@ -393,6 +395,8 @@ def resume_run(
             return _train_locked(
                 spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, meta=meta
             )
+    except StorageError as exc:  # a model or checkpoint that could not be saved
+        raise StorageError(f"{exc}; {_how_to_continue(out, spec.algo)}") from None
     except OSError as exc:
         if exc.errno not in STORAGE_ERRNOS:
             raise
@@ -410,15 +414,22 @@ def storage_error(out: Path, exc: OSError, algo: str) -> StorageError:
     """A run folder that could not be written as one :class:`StorageError` naming the file,
     the reason and how the run continues."""
     where = exc.filename or out
+    return StorageError(
+        f"cannot write {str(where)!r}: {exc.strerror}; {_how_to_continue(out, algo)}"
+    )
+
+
+def _how_to_continue(out: Path, algo: str) -> str:
+    try:
+        checkpoint = (out / CHECKPOINT).exists()
+    except OSError:  # a folder this process may no longer read
+        checkpoint = False
     then = (
         f"tlac train --resume {out} continues from its last checkpoint"
-        if getattr(get_algorithm(algo), "exact_resume", False) and (out / CHECKPOINT).exists()
+        if getattr(get_algorithm(algo), "exact_resume", False) and checkpoint
         else "the same tlac train command starts it again"
     )
-    return StorageError(
-        f"cannot write {str(where)!r}: {exc.strerror}; the run stopped unfinished: once the "
-        f"folder can be written, {then}"
-    )
+    return f"the run stopped unfinished: once the folder can be written, {then}"
 
 
 def _keep_rows_until(path: Path, last_step: int) -> None:

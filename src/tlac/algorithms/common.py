@@ -16,7 +16,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from tlac.errors import ConfigError
+from tlac.errors import ConfigError, StorageError
 from tlac.teachers.base import ask_teacher, take_rows
 from tlac.validation import from_mapping
 
@@ -96,6 +96,8 @@ def checkpoint_path(path: str | Path) -> Path:
     >>> checkpoint_path("runs/model"), checkpoint_path("m.zip"), checkpoint_path("m.pt")
     (PosixPath('runs/model.pt'), PosixPath('m.zip'), PosixPath('m.pt'))
     """
+    if not isinstance(path, str | os.PathLike) or not str(path).strip():
+        raise ConfigError(f"expected a file path (a str or pathlib.Path), got {path!r}")
     p = Path(path)
     return p if p.suffix else p.with_name(p.name + ".pt")
 
@@ -255,6 +257,60 @@ def spaces_match(a: gym.Space, b: gym.Space) -> bool:
     return False
 
 
+class CheckedEnv(gym.Wrapper):
+    """A user's environment with its first ``reset`` and first ``step`` checked against
+    Gymnasium's API (``(obs, info)``; ``(obs, reward, terminated, truncated, info)``) and a Box
+    observation against its space's shape: the old 4-tuple API or a wrong shape is one
+    ConfigError saying what was returned and what is expected, not an unpacking error deep
+    inside SB3's DummyVecEnv. Later calls pass through unchecked."""
+
+    def __init__(self, env: gym.Env):
+        super().__init__(env)
+        self._checked = {"reset": False, "step": False}
+
+    def _check(self, call: str, result: Any, arity: int, expected: str) -> None:
+        if self._checked[call]:
+            return
+        if not isinstance(result, tuple) or len(result) != arity:
+            got = f"a {len(result)}-tuple" if isinstance(result, tuple) else type(result).__name__
+            raise ConfigError(
+                f"the environment's {call}() returned {got}; expected {expected} (Gymnasium's "
+                "API; an old gym environment needs gymnasium's compatibility wrapper)"
+            )
+        space = self.observation_space
+        if isinstance(space, gym.spaces.Box) and np.shape(result[0]) != space.shape:
+            raise ConfigError(
+                f"the environment's {call}() returned an observation of shape "
+                f"{np.shape(result[0])}; its observation_space is {space}"
+            )
+        self._checked[call] = True
+
+    def reset(self, **kwargs: Any) -> Any:
+        result = self.env.reset(**kwargs)
+        self._check("reset", result, 2, "(observation, info)")
+        return result
+
+    def step(self, action: Any) -> Any:
+        result = self.env.step(action)
+        self._check("step", result, 5, "(observation, reward, terminated, truncated, info)")
+        return result
+
+
+def check_finite_weights(tensors: dict[str, torch.Tensor], path: Any) -> None:
+    """A model file whose weights hold NaN or infinity (its training diverged) is refused with a
+    ConfigError naming the file and the tensor: it would act on garbage without a word."""
+    for key, tensor in tensors.items():
+        if (
+            isinstance(tensor, torch.Tensor)
+            and tensor.is_floating_point()
+            and not bool(torch.isfinite(tensor).all())
+        ):
+            raise ConfigError(
+                f"{str(path)!r}: the model's weights hold NaN or infinity ({key}): its training "
+                "diverged; load an earlier checkpoint or train it again"
+            )
+
+
 def check_env_spaces(env: Any, observation_space: gym.Space, action_space: gym.Space) -> None:
     """The environment given to ``load`` has the checkpoint's spaces (:func:`spaces_match`);
     ConfigError naming the one that differs. ``env=None`` passes."""
@@ -297,14 +353,17 @@ def atomic_torch_save(data: Any, path: Path) -> Path:
     """``torch.save`` of :func:`canonical_data` to a temporary file, then rename it to
     ``path``: a crash while writing leaves the previous file whole, and the same values give
     the same bytes. Returns ``path``."""
-    path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
     try:
-        torch.save(canonical_data(data), tmp)
-    except RuntimeError:  # torch's zip writer hides the file system's reason: ask it again
-        _raise_write_error(tmp)
-        raise
-    tmp.replace(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            torch.save(canonical_data(data), tmp)
+        except RuntimeError:  # torch's zip writer hides the file system's reason: ask it again
+            _raise_write_error(tmp)
+            raise
+        tmp.replace(path)
+    except OSError as exc:  # a full disk, a read-only folder, no such place
+        raise StorageError(f"cannot write {str(exc.filename or path)!r}: {exc.strerror}") from None
     return path
 
 

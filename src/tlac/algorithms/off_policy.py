@@ -42,6 +42,7 @@ from tlac.algorithms.callbacks import LearnCallbacks
 from tlac.algorithms.common import (
     atomic_torch_save,
     check_env_spaces,
+    check_finite_weights,
     checkpoint_path,
     linear_epsilon,
     make_progress_bar,
@@ -55,7 +56,7 @@ from tlac.algorithms.resume import (
     restore_vec_env,
     vec_env_state,
 )
-from tlac.errors import ConfigError
+from tlac.errors import ConfigError, TlacError
 from tlac.memory import check_fits
 from tlac.recording import Recorder, next_log_step
 
@@ -305,18 +306,29 @@ def load_model(
     training state. ``setup_count``: the checkpoint field that ``cls._setup`` takes third
     (the number of choices or of teachers)."""
     data = load_checkpoint(path, cls.algo, resume, env)
-    model = cls(
-        env=None, teachers=teachers, seed=int(data["seed"]), recorder=None, **data["config"]
-    )
-    obs_space = space_from_data(data["observation_space"])
-    action_space = space_from_data(data["action_space"])
-    check_env_spaces(env, obs_space, action_space)
-    model._setup(obs_space, action_space, int(data[setup_count]))
-    for name, state_dict in data["state"].items():
-        getattr(model, name).load_state_dict(state_dict)
-    model.num_timesteps, model.env = int(data["num_timesteps"]), env
-    if resume:
-        restore_training_state(model, data["training"])
+    try:
+        model = cls(
+            env=None, teachers=teachers, seed=int(data["seed"]), recorder=None, **data["config"]
+        )
+        obs_space = space_from_data(data["observation_space"])
+        action_space = space_from_data(data["action_space"])
+        check_env_spaces(env, obs_space, action_space)
+        model._setup(obs_space, action_space, int(data[setup_count]))
+        for name, state_dict in data["state"].items():
+            getattr(model, name).load_state_dict(state_dict)
+            check_finite_weights(state_dict, checkpoint_path(path))
+        model.num_timesteps, model.env = int(data["num_timesteps"]), env
+        if resume:
+            restore_training_state(model, data["training"])
+    except TlacError:
+        raise
+    except (KeyError, TypeError, ValueError, RuntimeError, IndexError, AttributeError) as exc:
+        problem = " ".join(str(exc).split())
+        raise ConfigError(
+            f"{str(checkpoint_path(path))!r} is not a loadable {cls.algo} model file: "
+            f"{type(exc).__name__} {problem[:200]} (missing keys, wrong tensor shapes or a "
+            "broken optimizer state)"
+        ) from None
     return model
 
 

@@ -18,8 +18,10 @@ import torch
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 
 from tlac.algorithms.common import (
+    CheckedEnv,
     atomic_torch_save,
     check_env_spaces,
+    check_finite_weights,
     checkpoint_path,
     safe_torch_load,
     space_from_data,
@@ -38,7 +40,7 @@ from tlac.algorithms.resume import (
 )
 from tlac.algorithms.tlac_config import TLACConfig
 from tlac.domains import domain_names, get_domain, make_teachers, make_vec_env
-from tlac.errors import ConfigError
+from tlac.errors import ConfigError, TlacError
 from tlac.recording import EpisodeRecorder, MetricWindow, find_episode_recorder
 from tlac.teachers.base import Teacher, as_teacher, teacher_label, unique_names
 
@@ -74,7 +76,7 @@ def as_vec_env(env: Any, n_envs: int, seed: int, vec_env: str = "dummy") -> tupl
         venv = env
     elif isinstance(env, gym.Env):
         check_space_kinds(env.observation_space)  # before DummyVecEnv trips on a text key
-        venv = DummyVecEnv([lambda: env])
+        venv = DummyVecEnv([lambda: CheckedEnv(env)])
         venv.seed(seed)
     else:
         raise ConfigError(
@@ -362,6 +364,29 @@ class TLACPersistence:
             found = state.get("format") if isinstance(state, dict) else None
             hint = f" (it is {found}, from an older tlac: retrain it)" if found else ""
             raise ConfigError(f"{str(path)!r} is not a {FORMAT} model file{hint}")
+        try:
+            model = cls._from_state(state, path, env, teachers, resume)
+        except TlacError:
+            raise
+        except (KeyError, TypeError, ValueError, RuntimeError, IndexError) as exc:
+            problem = " ".join(str(exc).split())
+            raise ConfigError(
+                f"{str(path)!r} is not a loadable TL-AC model file: {type(exc).__name__} "
+                f"{problem[:200]} (missing keys, wrong tensor shapes or a broken optimizer state)"
+            ) from None
+        check_finite_weights(model.net.state_dict(), path)
+        return model
+
+    @classmethod
+    def _from_state(
+        cls: type[_Model],
+        state: dict[str, Any],
+        path: Path,
+        env: Any,
+        teachers: Sequence[Any] | None,
+        resume: bool,
+    ) -> _Model:
+        """:meth:`load` once the file is read: the model its ``state`` describes."""
         model = cls.__new__(cls)
         model.obs_policy = ObsPolicy.from_data(state.get("policy"))
         model._setup(TLACConfig(**state["config"]), state["seed"], env, teachers, None, state)

@@ -204,9 +204,8 @@ def check_actions(teacher_name: str, actions: Any, action_space: gym.Space, n: i
                     f"teacher {teacher_name!r} returned non-integer action {arr.tolist()} "
                     f"for {action_space}"
                 )
-            arr = arr.astype(np.int64)
         low, high = action_space.start, action_space.start + action_space.n - 1
-        bad = (arr < low) | (arr > high)
+        bad = (arr < low) | (arr > high)  # before the cast: 1e30 is no int64
         if bad.any():
             raise TeacherError(
                 f"teacher {teacher_name!r} returned action {arr[bad][0]} outside "

@@ -1,0 +1,459 @@
+"""Bad input, round two (issue 44): the cases of its battery that ended in a traceback, a raw
+exception from the Python API, or nothing at all. Each ends in one line naming the culprit and
+what is accepted: exit status 2 and one line on stderr from the CLI (run in-process, as in
+tests/test_bad_input.py), a :class:`tlac.errors.TlacError` with the same message from the API.
+
+The fault cases (a disk that fills up, a folder turned read-only while a run trains) run the
+CLI in a subprocess and are marked ``slow``.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import textwrap
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+import yaml
+
+from tlac.cli import main
+from tlac.errors import ConfigError, StorageError, TeacherError, TlacError
+
+TINY = Path(__file__).resolve().parents[1] / "configs" / "tiny-doorkey.yaml"
+T = ["train", "--steps", "64", "--no-progress", "--eval-episodes", "1", "--log-interval", "32"]
+
+
+def _grid_config() -> dict:
+    grid = yaml.safe_load(TINY.read_text())
+    grid.update(steps=64, seeds=1, eval={"every": 64, "episodes": 1}, log_interval=32)
+    grid["teacher_sets"] = {"1optimal": {"teachers": ["optimal"]}}
+    grid["algorithms"] = [{"name": "tlac"}]
+    grid.pop("baseline", None)
+    grid["metrics"].update(jumpstart_window=64, final_window=32)
+    return grid
+
+
+@pytest.fixture(scope="module")
+def made(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """A finished run and a finished tiny grid, made once."""
+    root = tmp_path_factory.mktemp("round2")
+    run = root / "run"
+    assert main([*T, "--out", str(run)]) == 0
+    config = root / "grid.yaml"
+    config.write_text(yaml.safe_dump(_grid_config()))
+    grid = root / "grid"
+    assert main(["experiment", "run", str(config), "--out", str(grid)]) == 0
+    return {"run": run, "grid": grid, "config": config}
+
+
+def one_line_error(args: list[str], capsys: pytest.CaptureFixture[str]) -> str:
+    """Run the CLI; assert exit status 2 and one line on stderr, no traceback; return it."""
+    try:
+        code = main(args)
+    except SystemExit as exc:  # argparse's usage errors
+        code = exc.code
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code == 2, err
+    assert len(lines) == 1, err
+    assert "Traceback" not in err
+    return lines[0]
+
+
+# --------------------------------------------------------------------------- tlac train
+def test_a_domain_file_with_a_syntax_error_names_the_file_and_line(tmp_path, capsys):
+    domain = tmp_path / "broken_domain.py"
+    domain.write_text("import math\ndef f(:\n    pass\n")
+    line = one_line_error([*T, "--env", f"{domain}:DOMAIN", "--out", str(tmp_path / "o")], capsys)
+    assert f"syntax error in {domain}, line 2" in line
+
+
+def test_a_domain_file_that_raises_names_the_file_line_and_exception(tmp_path, capsys):
+    domain = tmp_path / "raising_domain.py"
+    domain.write_text("x = 1\nraise RuntimeError('no simulator here')\n")
+    line = one_line_error([*T, "--env", f"{domain}:DOMAIN", "--out", str(tmp_path / "o")], capsys)
+    assert f"raised RuntimeError in {domain}, line 2: no simulator here" in line
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (["--set", "net_arch_low=[1000000000000, 64]"], "the networks (net_arch_high/low/critic"),
+        (["--set", "n_steps=100000000"], "the rollout (n_steps=100000000 x 1 environments)"),
+        (
+            ["--set", "imitation_buffer_size=10000000000"],
+            "the imitation buffer (imitation_buffer_size=10000000000)",
+        ),
+        (
+            ["--algo", "dqn-tlql", "--set", "buffer_size=10000000000"],
+            "the replay buffer (buffer_size=10000000000)",
+        ),
+        (
+            ["--algo", "ac-teach", "--set", "buffer_size=10000000000"],
+            "the replay buffer (buffer_size=10000000000)",
+        ),
+        (["--algo", "ppo", "--set", "n_steps=100000000"], "the rollout (n_steps=100000000"),
+        (
+            ["--algo", "ppo", "--set", "policy_kwargs={net_arch: [1000000000000]}"],
+            "the networks (net_arch",
+        ),
+    ],
+)
+def test_a_size_beyond_the_memory_is_refused_before_allocation(args, fragment, tmp_path, capsys):
+    out = tmp_path / "o"
+    line = one_line_error([*T, *args, "--out", str(out)], capsys)
+    assert fragment in line and "of memory, more than this machine has available" in line
+    assert not out.exists()  # refused when the model was built: no half-made run folder
+
+
+def test_the_memory_estimate_lets_the_presets_through():
+    from tlac.memory import available_bytes, check_fits
+
+    assert available_bytes() is None or available_bytes() > 0
+    check_fits({"a DoorKey preset's buffers": 4 * 100_000 * 300}, "lower it")  # 120 MB
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (["--algo", "a2c", "--set", "n_steps=0"], "a2c setting n_steps must be a positive integer"),
+        (["--algo", "ppo", "--set", "n_epochs=0"], "ppo setting n_epochs must be a positive"),
+        (
+            ["--algo", "a2c", "--set", "policy_kwargs={net_arch: [-5]}"],
+            "policy_kwargs.net_arch: expected a list of positive layer sizes",
+        ),
+        (["--algo", "a2c", "--set", "policy_kwargs=5"], "policy_kwargs must be a mapping"),
+        (["--out", ""], "--out '' names no folder"),
+        (["--out", "x" * 300], "File name too long"),
+    ],
+)
+def test_train_refuses(args, fragment, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    line = one_line_error([*T, *args], capsys)
+    assert fragment in line
+    assert not (tmp_path / "runs").exists()
+
+
+def test_a2c_policy_kwargs_net_arch_is_used_not_replaced():
+    from tlac.algorithms.sb3_baselines import sb3_kwargs
+
+    kwargs = sb3_kwargs("a2c", {"net_arch": [64, 64], "policy_kwargs": {"net_arch": [32]}})
+    assert kwargs["policy_kwargs"]["net_arch"] == {"pi": [32], "vf": [32]}
+
+
+@pytest.mark.parametrize("content", [{"config.yaml": "mine: 1\n"}, {"notes.txt": "mine"}])
+def test_force_refuses_a_folder_that_is_not_a_run(content, tmp_path, capsys):
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    for name, text in content.items():
+        (folder / name).write_text(text)
+    line = one_line_error([*T, "--out", str(folder), "--force"], capsys)
+    assert "holds files that are not a run's; --force replaces a run folder only" in line
+    for name, text in content.items():
+        assert (folder / name).read_text() == text
+
+
+def test_force_still_replaces_a_run(made, tmp_path):
+    run = tmp_path / "run"
+    shutil.copytree(made["run"], run)
+    assert main([*T, "--out", str(run), "--force"]) == 0
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "fragment"),
+    [
+        ("eval_every", "x", "eval_every must be a positive number of steps, got 'x'"),
+        ("log_interval", "x", "log_interval must be a positive integer"),
+        ("eval_episodes", "x", "eval_episodes must be an integer >= 0"),
+        ("teacher_kinds", 5, "teachers must be a list of teacher names"),
+        ("overrides", 7, "overrides must be a mapping"),
+    ],
+)
+def test_resume_names_a_bad_value_in_config_yaml(key, value, fragment, made, tmp_path, capsys):
+    run = tmp_path / "run"
+    shutil.copytree(made["run"], run)
+    (run / "result.json").unlink()
+    torch.save({"run": {"num_timesteps": 0}, "training": {}}, run / "checkpoint.pt")
+    config = yaml.safe_load((run / "config.yaml").read_text())
+    config[key] = value
+    (run / "config.yaml").write_text(yaml.safe_dump(config))
+    line = one_line_error(["train", "--resume", str(run), "--no-progress"], capsys)
+    assert f"{run / 'config.yaml'}': {fragment}" in line
+
+
+# --------------------------------------------------------------------------- tlac eval
+def _damage_weights(state: dict, how: str) -> None:
+    weight = next(k for k in state["net"] if k.startswith("weights"))
+    if how == "missing key":
+        del state["net"][weight]
+    elif how == "wrong shape":
+        state["net"][weight] = torch.zeros(3, 3)
+    elif how == "broken optimizer":
+        state["optimizer"] = {"state": {}, "param_groups": []}
+    elif how == "NaN weights":
+        state["net"][weight] = state["net"][weight] * float("nan")
+
+
+DAMAGE = {
+    "missing key": "is not a loadable TL-AC model file: RuntimeError",
+    "wrong shape": "is not a loadable TL-AC model file: RuntimeError",
+    "broken optimizer": "is not a loadable TL-AC model file: ValueError",
+    "NaN weights": "the model's weights hold NaN or infinity (weights.",
+}
+
+
+@pytest.mark.parametrize("how", list(DAMAGE))
+def test_eval_and_load_refuse_a_damaged_model(how, made, tmp_path, capsys):
+    from tlac import TLAC
+
+    run = tmp_path / "run"
+    shutil.copytree(made["run"], run)
+    state = torch.load(run / "model.pt", weights_only=True)
+    _damage_weights(state, how)
+    torch.save(state, run / "model.pt")
+    line = one_line_error(["eval", str(run), "--episodes", "1"], capsys)
+    assert f"'{run / 'model.pt'}'" in line and DAMAGE[how] in line
+    with pytest.raises(ConfigError) as info:
+        TLAC.load(run / "model.pt")
+    assert DAMAGE[how] in str(info.value)
+
+
+def test_a_dqn_tlql_model_with_nan_weights_is_refused(tmp_path):
+    from tlac.algorithms.dqn_tlql import DQNTLQL
+    from tlac.domains import get_domain, make_vec_env
+
+    venv = make_vec_env(get_domain("doorkey"), 1, 0, None)
+    model = DQNTLQL(venv, teachers=[], seed=0)
+    path = model.save(tmp_path / "dqn")
+    state = torch.load(path, weights_only=True)
+    name = next(iter(state["state"]))
+    key = next(k for k, v in state["state"][name].items() if v.is_floating_point())
+    state["state"][name][key] = state["state"][name][key] * float("nan")
+    torch.save(state, path)
+    with pytest.raises(ConfigError, match="NaN or infinity"):
+        DQNTLQL.load(path)
+
+
+# --------------------------------------------------------------------------- tlac teacher
+@pytest.mark.parametrize("value", ["nan", "inf", "-5"])
+def test_teacher_train_time_limit_must_be_finite(value, capsys):
+    line = one_line_error(
+        ["teacher", "train", "hopper-bullet", "--steps", "10", "--time-limit", value], capsys
+    )
+    assert "--time-limit must be a finite number of seconds > 0" in line
+
+
+# --------------------------------------------------------------------------- experiments
+LAUGHS = "".join(
+    f"{b}: &{b} [{', '.join([f'*{a}'] * 9)}]\n" for a, b in zip("abcdefgh", "bcdefghi", strict=True)
+)
+
+
+@pytest.mark.parametrize(
+    ("edit", "fragment"),
+    [
+        (lambda text: text + "steps: 128\n", "key 'steps' is given twice (first on line"),
+        (
+            lambda text: 'a: &a ["lol", "lol"]\n' + LAUGHS + text,
+            "its aliases expand to more than 1,000,000 values",
+        ),
+        (lambda text: "a: " + "[" * 50_000 + "]" * 50_000 + "\n" + text, "nested too deeply"),
+        (lambda text: text.replace("seeds: 1\n", "seeds: 100000000\n"), "seeds from 1 to 10000"),
+        (
+            lambda text: text.replace("seeds: 1\n", "seeds: [0, 4294967296]\n"),
+            "'seeds[1]': expected a seed from 0 to 2147483647",
+        ),
+    ],
+)
+@pytest.mark.parametrize("command", ["list", "run"])
+def test_experiment_files_refuse(edit, fragment, command, made, tmp_path, capsys):
+    config = tmp_path / "exp.yaml"
+    config.write_text(edit(made["config"].read_text()))
+    args = ["experiment", command, str(config)]
+    if command == "run":
+        args += ["--out", str(tmp_path / "grid")]
+    line = one_line_error(args, capsys)
+    assert fragment in line and "exp.yaml" in line
+
+
+@pytest.mark.parametrize(
+    ("teachers_json", "fragment"),
+    [
+        ("{{{ not json", "not readable JSON"),
+        ("[1, 2]", "expected a JSON object of teacher name -> {mean, std, episodes}"),
+        ('{"optimal": "x"}', "expected a JSON object of teacher name"),
+        ('{"optimal": {"mean": "high"}}', "optimal.mean must be a number, got 'high'"),
+    ],
+)
+def test_report_refuses_a_broken_teachers_json(teachers_json, fragment, made, tmp_path, capsys):
+    grid = tmp_path / "grid"
+    shutil.copytree(made["grid"], grid)
+    (grid / "teachers.json").write_text(teachers_json)
+    line = one_line_error(["report", str(grid)], capsys)
+    assert "teachers.json" in line and fragment in line
+
+
+def test_report_that_cannot_be_written_is_one_line(made, tmp_path, capsys):
+    grid = tmp_path / "grid"
+    shutil.copytree(made["grid"], grid)
+    (grid / "report.md").mkdir()
+    line = one_line_error(["report", str(grid)], capsys)
+    assert f"cannot write the report into '{grid}'" in line and "Is a directory" in line
+
+
+# --------------------------------------------------------------------------- the Python API
+class _OldStepApi(gym.Env):
+    observation_space = gym.spaces.Box(-1, 1, (3,), np.float32)
+    action_space = gym.spaces.Discrete(2)
+
+    def reset(self, seed=None, options=None):
+        return np.zeros(3, np.float32), {}
+
+    def step(self, action):
+        return np.zeros(3, np.float32), 0.0, False, {}  # gym < 0.26: four values
+
+
+class _OldResetApi(_OldStepApi):
+    def reset(self, seed=None, options=None):
+        return np.zeros(3, np.float32)  # no info
+
+
+class _WrongShape(_OldStepApi):
+    def reset(self, seed=None, options=None):
+        return np.zeros(5, np.float32), {}
+
+
+@pytest.mark.parametrize(
+    ("env_cls", "fragment"),
+    [
+        (_OldStepApi, "step() returned a 4-tuple; expected (observation, reward, terminated"),
+        (_OldResetApi, "reset() returned ndarray; expected (observation, info)"),
+        (_WrongShape, "reset() returned an observation of shape (5,); its observation_space is"),
+    ],
+)
+def test_an_environment_off_gymnasiums_api_is_one_error(env_cls, fragment):
+    from tlac import TLAC
+
+    model = TLAC(env_cls(), n_steps=16, batch_size=16)
+    with pytest.raises(ConfigError) as info:
+        model.learn(16, progress_bar=False)
+    assert fragment in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("action", "fragment"),
+    [
+        (1e30, "returned action 1e+30 outside Discrete(2)"),
+        (1 + 0j, "returned (1+0j)"),
+        (np.array(object(), dtype=object), "dtype=object"),
+        ("left", "returned 'left'"),
+    ],
+)
+def test_a_teacher_returning_garbage_is_one_error(action, fragment):
+    from tlac import TLAC
+
+    model = TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: action], n_steps=16, batch_size=16)
+    with pytest.raises(TeacherError) as info:
+        model.learn(16, progress_bar=False)
+    assert fragment in str(info.value)
+
+
+@pytest.mark.parametrize("path", ["", 3, None, "   "])
+def test_save_to_a_non_path_is_one_error(path):
+    from tlac import TLAC
+
+    with pytest.raises(ConfigError, match="expected a file path"):
+        TLAC("doorkey", teachers=["optimal"], n_steps=16, batch_size=16).save(path)
+
+
+def test_save_where_nothing_can_be_written_is_one_error():
+    from tlac import TLAC
+
+    with pytest.raises(StorageError, match="cannot write '/proc/"):
+        TLAC("doorkey", teachers=["optimal"], n_steps=16, batch_size=16).save("/proc/m.pt")
+
+
+def test_teachers_as_one_string_say_a_list_is_expected():
+    from tlac import TLAC
+
+    with pytest.raises(TlacError, match="teachers must be a list"):
+        TLAC("doorkey", teachers="optimal")
+
+
+# --------------------------------------------------------------------------- faults mid-run
+FAULT_SCRIPT = """
+import os, resource, signal, stat, sys
+import tlac.run
+from tlac.cli import main
+
+fault = sys.argv[1]
+evaluate = tlac.run.evaluate_student
+
+def evaluate_then_fail(model, *args, **kwargs):
+    returns = evaluate(model, *args, **kwargs)
+    if model.num_timesteps >= 1024:  # after the checkpoints at 512 and 1024: the next write fails
+        if fault == "disk full":
+            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+            resource.setrlimit(resource.RLIMIT_FSIZE, (1000, resource.RLIM_INFINITY))
+        elif os.geteuid() == 0:  # root writes anywhere: become nobody, who may not write here
+            os.setuid(65534)
+        else:
+            os.chmod(sys.argv[2], stat.S_IRUSR | stat.S_IXUSR)
+    return returns
+
+tlac.run.evaluate_student = evaluate_then_fail
+sys.exit(main(sys.argv[3:]))
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fault", ["disk full", "read-only"])
+def test_a_fault_mid_run_is_one_line_and_resume_finishes(fault, tmp_path):
+    base = Path(tempfile.mkdtemp(prefix="tlac-fault-"))  # not under pytest's 0700 folders:
+    base.chmod(0o755)  # the read-only case as root runs on as nobody, who must reach the run
+    try:
+        _fault_then_resume(fault, base / "run", tmp_path)
+    finally:
+        shutil.rmtree(base, ignore_errors=True)
+
+
+def _fault_then_resume(fault: str, run: Path, tmp_path: Path) -> None:
+    script = tmp_path / "fault.py"
+    script.write_text(textwrap.dedent(FAULT_SCRIPT))
+    args = [
+        *["train", "--steps", "3072", "--no-progress", "--out", str(run)],
+        *["--checkpoint-every", "512", "--eval-every", "1024", "--eval-episodes", "1"],
+        *["--set", "n_steps=128", "--set", "batch_size=64", "--set", "imitation_buffer_size=256"],
+    ]
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    done = subprocess.run(
+        [sys.executable, str(script), fault, str(run), *args],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
+    lines = [line for line in done.stderr.splitlines() if line.strip()]
+    assert done.returncode == 2, done.stderr
+    assert len(lines) == 1 and "Traceback" not in done.stderr, done.stderr
+    reason = "File too large" if fault == "disk full" else "Permission denied"
+    assert lines[0].startswith("tlac: error: cannot write") and reason in lines[0], lines[0]
+    assert f"tlac train --resume {run} continues from its last checkpoint" in lines[0]
+    os.chmod(run, 0o755)
+    assert not (run / "result.json").exists()
+    resumed = subprocess.run(
+        [sys.executable, "-m", "tlac", "train", "--resume", str(run), "--no-progress"],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
+    assert resumed.returncode == 0, resumed.stderr
+    assert (run / "result.json").exists()
