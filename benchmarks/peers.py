@@ -1,0 +1,403 @@
+"""TL-AC against what a user with teachers would pick instead: SB3 PPO alone, behaviour cloning
+of the best teacher then PPO fine-tuning ("BC then PPO"), and DAgger with the best teacher.
+
+Per case (an environment of benchmarks/user_envs.py with its teachers) and learner, every
+``--eval-every`` environment steps the student ALONE is scored greedily on the user suite's
+fresh evaluation episodes, and the training wall-clock so far is recorded (evaluation time
+excluded). The peers that need one teacher get the best one, chosen by its measured return
+(an oracle choice that TL-AC does not need):
+
+- ``tlac``: TL-AC's defaults with all of the case's teachers (``TLAC(env, teachers=...)``).
+- ``ppo``: SB3 PPO's defaults, no teachers.
+- ``bc-ppo``: ``--demo-steps`` environment steps of the best teacher's demonstrations, behaviour
+  cloning of SB3 PPO's ``MlpPolicy`` on them (maximum likelihood of the teacher's actions,
+  ``BC_EPOCHS`` epochs of minibatches of 64), then SB3 PPO fine-tuning from those weights for
+  the rest of the budget. The demonstrations count towards the budget.
+- ``dagger``: DAgger (Ross et al. 2011) with the best teacher: rounds of 2,048 steps acted by
+  the teacher with probability beta and by the student otherwise (per step), beta annealed
+  linearly from 1 to 0 over ``DAGGER_RAMPDOWN`` rounds (the schedule of the ``imitation``
+  package's DAgger), every visited state labelled with the teacher's action and added to the
+  aggregated data set, then 320 minibatches of 64 drawn from it (as many gradient steps as SB3
+  PPO makes per rollout) on the same ``MlpPolicy``.
+
+Reported per case: the student alone at 1e4 / 2e4 / 5e4 / 1e5 steps (mean +- std over seeds),
+and per learner the steps and training seconds until the student alone first reaches 90% of
+the way from the random policy to the best final score among the learners (mean over the
+seeds that reach it; "never" counts the others); one figure per case. Every run is a JSON file
+under ``--out``/runs (rerunning skips it).
+
+    .venv/bin/python benchmarks/peers.py --cases MountainCar-v0+weak Acrobot-v1+weak --seeds 0 1 2 3 4
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shlex
+import sys
+import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import user_envs  # noqa: E402  (the suites, their teachers and their evaluation episodes)
+
+LEARNERS = ("tlac", "ppo", "bc-ppo", "dagger")
+MILESTONES = (10_000, 20_000, 50_000, 100_000)
+BC_EPOCHS = 10
+DAGGER_ROUND = 2048
+DAGGER_RAMPDOWN = 15
+MINIBATCH = 64
+GRADIENT_STEPS_PER_ROUND = 320  # SB3 PPO's 10 epochs x 2048 / 64
+
+
+# ------------------------------------------------------------------ measuring
+class Curve:
+    """The student alone every ``every`` steps, with the training seconds spent so far."""
+
+    def __init__(self, case: str, every: int, episodes: int):
+        self.case, self.every, self.episodes = case, every, episodes
+        self.next = every
+        self.points: list[list[float]] = []  # [steps, student alone, training seconds]
+        self.eval_seconds = 0.0
+        self.start = time.perf_counter()
+
+    def due(self, steps: int) -> bool:
+        return steps >= self.next
+
+    def record(self, steps: int, act_batch: Callable[[np.ndarray], Any]) -> None:
+        """Score the student now (greedy) and move the next evaluation past ``steps``."""
+        t0 = time.perf_counter()
+        score = float(user_envs.evaluate(act_batch, self.case, self.episodes).mean())
+        self.eval_seconds += time.perf_counter() - t0
+        train_seconds = time.perf_counter() - self.start - self.eval_seconds
+        self.points.append([int(steps), score, round(train_seconds, 2)])
+        while self.next <= steps:
+            self.next += self.every
+
+
+def greedy(policy: Any) -> Callable[[np.ndarray], Any]:
+    """The greedy action of an SB3 policy (or model) for a batch of observations."""
+    return lambda batch: policy.predict(batch, deterministic=True)[0]
+
+
+def best_teacher_name(reference: dict[str, Any]) -> str:
+    """The teacher with the best measured return (``user_envs.reference_returns``): the
+    oracle choice of the single-teacher peers."""
+    names = list(reference["teachers"])
+    return names[int(np.argmax([reference["teachers"][n] for n in names]))]
+
+
+def best_teacher(case: str, space: Any, seed: int, name: str) -> Any:
+    """The case's teacher called ``name``, as a batched tlac teacher."""
+    from tlac.teachers.base import as_teacher
+
+    for teacher in (as_teacher(t, space) for t in user_envs.SUITE[case](seed, space)):
+        if teacher.name == name:
+            return teacher
+    raise LookupError(f"{case}: no teacher named {name!r}")
+
+
+# ------------------------------------------------------------------ the learners
+def sb3_milestone_callback(curve: Curve, offset: int = 0) -> Any:
+    """An SB3 callback that records ``curve`` when due (``offset``: steps spent before PPO)."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class Milestones(BaseCallback):
+        def _on_step(self) -> bool:
+            steps = offset + self.num_timesteps
+            if curve.due(steps):
+                curve.record(steps, greedy(self.model))
+            return True
+
+    return Milestones()
+
+
+def train_tlac(case: str, seed: int, steps: int, curve: Curve) -> None:
+    import gymnasium as gym
+
+    from tlac import TLAC
+
+    env = gym.make(user_envs.gym_id(case))
+    model = TLAC(env, teachers=user_envs.SUITE[case](seed, env.action_space), seed=seed)
+
+    def after_update(m: Any) -> bool:
+        if curve.due(m.num_timesteps):
+            curve.record(m.num_timesteps, greedy(m))
+        return True
+
+    model.learn(steps, callback=after_update)
+
+
+def train_ppo(case: str, seed: int, steps: int, curve: Curve) -> None:
+    import gymnasium as gym
+    from stable_baselines3 import PPO
+
+    model = PPO("MlpPolicy", gym.make(user_envs.gym_id(case)), seed=seed, device="cpu")
+    model.learn(steps, callback=sb3_milestone_callback(curve))
+
+
+def demonstrations(env: Any, teacher: Any, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """``n`` steps of the teacher acting alone: (observations, its actions)."""
+    obs_rows, action_rows = [], []
+    obs, _ = env.reset(seed=seed)
+    for _ in range(n):
+        action = np.asarray(teacher.predict(obs[None]))[0]
+        obs_rows.append(obs)
+        action_rows.append(action)
+        obs, _, terminated, truncated, _ = env.step(action)
+        if terminated or truncated:
+            obs, _ = env.reset()
+    return np.asarray(obs_rows), np.asarray(action_rows)
+
+
+def clone_steps(policy: Any, obs: np.ndarray, actions: np.ndarray, n: int, rng: Any) -> None:
+    """``n`` gradient steps of maximum likelihood of ``actions`` under the SB3 policy's actor
+    (minibatches of MINIBATCH rows drawn uniformly), with the policy's own optimizer."""
+    import torch
+
+    obs_t = torch.as_tensor(obs, dtype=torch.float32)
+    actions_t = torch.as_tensor(actions)
+    policy.set_training_mode(True)
+    for _ in range(n):
+        idx = torch.as_tensor(rng.integers(len(obs), size=MINIBATCH))
+        _, log_prob, _ = policy.evaluate_actions(obs_t[idx], actions_t[idx])
+        loss = -log_prob.mean()
+        policy.optimizer.zero_grad()
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(policy.parameters(), 0.5)
+        policy.optimizer.step()
+    policy.set_training_mode(False)
+
+
+def train_bc_ppo(
+    case: str, seed: int, steps: int, curve: Curve, teacher_name: str, demo_steps: int
+) -> None:
+    import gymnasium as gym
+    from stable_baselines3 import PPO
+
+    env = gym.make(user_envs.gym_id(case))
+    model = PPO("MlpPolicy", env, seed=seed, device="cpu")
+    teacher = best_teacher(case, env.action_space, seed, teacher_name)
+    obs, actions = demonstrations(gym.make(user_envs.gym_id(case)), teacher, demo_steps, seed)
+    rng = np.random.default_rng(seed)
+    clone_steps(model.policy, obs, actions, BC_EPOCHS * len(obs) // MINIBATCH, rng)
+    curve.record(demo_steps, greedy(model))
+    model.learn(steps - demo_steps, callback=sb3_milestone_callback(curve, demo_steps))
+
+
+def train_dagger(case: str, seed: int, steps: int, curve: Curve, teacher_name: str) -> None:
+    import gymnasium as gym
+    from stable_baselines3 import PPO
+
+    env = gym.make(user_envs.gym_id(case))
+    policy = PPO("MlpPolicy", env, seed=seed, device="cpu").policy  # the same network as PPO's
+    teacher = best_teacher(case, env.action_space, seed, teacher_name)
+    rng = np.random.default_rng([seed, 0xDA])
+    data_obs: list[np.ndarray] = []
+    data_actions: list[np.ndarray] = []
+    obs, _ = env.reset(seed=seed)
+    done_steps, round_index = 0, 0
+    while done_steps < steps:
+        beta = max(0.0, 1.0 - round_index / DAGGER_RAMPDOWN)
+        for _ in range(min(DAGGER_ROUND, steps - done_steps)):
+            label = np.asarray(teacher.predict(obs[None]))[0]
+            data_obs.append(obs)
+            data_actions.append(label)
+            act = label if rng.random() < beta else policy.predict(obs, deterministic=False)[0]
+            obs, _, terminated, truncated, _ = env.step(act)
+            if terminated or truncated:
+                obs, _ = env.reset()
+            done_steps += 1
+        clone_steps(
+            policy, np.asarray(data_obs), np.asarray(data_actions), GRADIENT_STEPS_PER_ROUND, rng
+        )
+        round_index += 1
+        if curve.due(done_steps) or done_steps >= steps:
+            curve.record(done_steps, greedy(policy))
+
+
+def train_one(
+    case: str, learner: str, seed: int, args: argparse.Namespace, teacher_name: str
+) -> dict[str, Any]:
+    import torch
+
+    torch.set_num_threads(1)
+    torch.manual_seed(seed)
+    steps = args.steps
+    curve = Curve(case, args.eval_every, args.episodes)
+    if learner == "tlac":
+        train_tlac(case, seed, steps, curve)
+    elif learner == "ppo":
+        train_ppo(case, seed, steps, curve)
+    elif learner == "bc-ppo":
+        train_bc_ppo(case, seed, steps, curve, teacher_name, args.demo_steps)
+    else:
+        train_dagger(case, seed, steps, curve, teacher_name)
+    result = {"case": case, "learner": learner, "seed": seed, "steps": steps, "curve": curve.points}
+    if learner in ("bc-ppo", "dagger"):
+        result["teacher"] = teacher_name
+    return result
+
+
+# ------------------------------------------------------------------ the report
+def score_at(curve: list[list[float]], step: int) -> float:
+    """The student alone at the last evaluation at or before ``step`` (NaN: none yet)."""
+    before = [p[1] for p in curve if p[0] <= step + DAGGER_ROUND]  # TL-AC's, DAgger's rollouts
+    return before[-1] if before else float("nan")
+
+
+def first_reach(curve: list[list[float]], threshold: float) -> tuple[float, float] | None:
+    """(steps, training seconds) of the first evaluation at or above ``threshold``."""
+    for steps, score, seconds in curve:
+        if score >= threshold:
+            return steps, seconds
+    return None
+
+
+def _mean_std(values: list[float]) -> str:
+    values = [v for v in values if np.isfinite(v)]
+    return f"{np.mean(values):.1f} +- {np.std(values):.1f}" if values else "-"
+
+
+def case_table(case: str, runs: dict[str, list[dict]], random_policy: float) -> list[str]:
+    """The rows of one case: student alone at the milestones, steps/seconds to 90%."""
+    finals = {
+        lr: float(np.mean([score_at(r["curve"], r["steps"]) for r in rs]))
+        for lr, rs in runs.items()
+    }
+    best = max(finals.values())
+    threshold = random_policy + 0.9 * (best - random_policy)
+    rows = []
+    for learner, rs in runs.items():
+        cells = [_mean_std([score_at(r["curve"], m) for r in rs]) for m in MILESTONES]
+        reached = [first_reach(r["curve"], threshold) for r in rs]
+        hit = [x for x in reached if x is not None]
+        never = len(reached) - len(hit)
+        to_steps = f"{np.mean([h[0] for h in hit]):.0f}" if hit else "never"
+        to_secs = f"{np.mean([h[1] for h in hit]):.0f}" if hit else "never"
+        if hit and never:
+            to_steps, to_secs = f"{to_steps} ({never} never)", f"{to_secs} ({never} never)"
+        rows.append(
+            f"| {case} | {learner} | {len(rs)} | "
+            + " | ".join(cells)
+            + f" | {to_steps} | {to_secs} |"
+        )
+    rows.append(
+        f"| {case} | (90% of the way from random {random_policy:.1f} to the best final "
+        f"{best:.1f}: {threshold:.1f}) | | | | | | | |"
+    )
+    return rows
+
+
+def load_runs(out: Path, case: str) -> dict[str, list[dict]]:
+    runs: dict[str, list[dict]] = {}
+    for learner in LEARNERS:
+        found = sorted((out / "runs").glob(f"{case}__{learner}__seed*.json"))
+        if found:
+            runs[learner] = [json.loads(p.read_text()) for p in found]
+    return runs
+
+
+def plot_case(out: Path, case: str, runs: dict[str, list[dict]], random_policy: float) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for learner, rs in runs.items():
+        grid = sorted({p[0] for r in rs for p in r["curve"]})
+        scores = np.array([[score_at(r["curve"], s) for s in grid] for r in rs])
+        mean, std = np.nanmean(scores, 0), np.nanstd(scores, 0)
+        ax.plot(grid, mean, label=learner)
+        ax.fill_between(grid, mean - std, mean + std, alpha=0.2)
+    ax.axhline(random_policy, color="grey", linestyle=":", label="random policy")
+    ax.set_xlabel("environment steps")
+    ax.set_ylabel("student alone (greedy)")
+    ax.set_title(case)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(out / f"{case}.png", dpi=100)
+    plt.close(fig)
+
+
+def report(out: Path, cases: list[str]) -> str:
+    header = (
+        "| case | learner | seeds | 1e4 | 2e4 | 5e4 | 1e5 | steps to 90% | training seconds to 90% |\n"
+        "|---|---|---|---|---|---|---|---|---|"
+    )
+    lines = [header]
+    for case in cases:
+        runs = load_runs(out, case)
+        if not runs:
+            continue
+        random_policy = json.loads((out / "reference" / f"{case}.json").read_text())[
+            "random_policy"
+        ]
+        lines += case_table(case, runs, random_policy)
+        plot_case(out, case, runs, random_policy)
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cases", nargs="+", required=True, choices=list(user_envs.SUITE))
+    parser.add_argument("--learners", nargs="+", default=list(LEARNERS), choices=LEARNERS)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
+    parser.add_argument("--steps", type=int, default=100_000)
+    parser.add_argument("--eval-every", type=int, default=10_000)
+    parser.add_argument("--episodes", type=int, default=user_envs.EVAL_EPISODES)
+    parser.add_argument("--demo-steps", type=int, default=10_000, help="bc-ppo's demonstrations")
+    parser.add_argument("--workers", type=int, default=1)
+    parser.add_argument("--out", type=Path, default=Path("results/peers"))
+    args = parser.parse_args()
+    if not 0 < args.demo_steps < args.steps:
+        parser.error(
+            f"--demo-steps must be between 0 and --steps ({args.steps}), got {args.demo_steps}"
+        )
+    (args.out / "runs").mkdir(parents=True, exist_ok=True)
+    (args.out / "reference").mkdir(parents=True, exist_ok=True)
+    for case in args.cases:
+        ref_path = args.out / "reference" / f"{case}.json"
+        if not ref_path.exists():
+            ref_path.write_text(json.dumps(user_envs.reference_returns(case, 100), indent=1))
+    best = {
+        case: best_teacher_name(json.loads((args.out / "reference" / f"{case}.json").read_text()))
+        for case in args.cases
+    }
+    todo = [
+        (case, learner, seed)
+        for seed in args.seeds
+        for case in args.cases
+        for learner in args.learners
+        if not (args.out / "runs" / f"{case}__{learner}__seed{seed}.json").exists()
+    ]
+    print(f"{len(todo)} runs to do with {args.workers} worker(s) -> {args.out}", flush=True)
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        futures = {pool.submit(train_one, c, lr, s, args, best[c]): (c, lr, s) for c, lr, s in todo}
+        for done, future in enumerate(as_completed(futures), 1):
+            case, learner, seed = futures[future]
+            result = future.result()
+            path = args.out / "runs" / f"{case}__{learner}__seed{seed}.json"
+            path.write_text(json.dumps(result, indent=1))
+            last = result["curve"][-1]
+            print(
+                f"[{done}/{len(todo)}] {case} {learner} seed {seed}: student alone {last[1]:.1f} "
+                f"at {last[0]} steps ({last[2]:.0f} s of training)",
+                flush=True,
+            )
+    table = report(args.out, args.cases)
+    command = shlex.join(["python", "benchmarks/peers.py", *sys.argv[1:]])
+    (args.out / "report.md").write_text(f"Made by `{command}`\n\n{table}")
+    print(table)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,56 @@
+"""The peer benchmark (benchmarks/peers.py): its scoring of curves, and one tiny run of each peer
+that learns from a teacher (behaviour cloning must move the student towards the teacher)."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+_DIR = Path(__file__).resolve().parents[1] / "benchmarks"
+sys.path.insert(0, str(_DIR))
+_spec = importlib.util.spec_from_file_location("peers", _DIR / "peers.py")
+peers = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(peers)
+
+
+def test_score_at_takes_the_last_evaluation_within_one_rollout():
+    curve = [[10240, -300.0, 5.0], [20480, -150.0, 10.0], [51200, -90.0, 25.0]]
+    assert np.isnan(peers.score_at(curve, 5000))
+    assert peers.score_at(curve, 10_000) == -300.0
+    assert peers.score_at(curve, 50_000) == -90.0  # 51,200 is within one 2,048-step rollout
+    assert peers.score_at(curve, 40_000) == -150.0
+
+
+def test_first_reach_and_the_ninety_percent_threshold():
+    curve = [[10000, -400.0, 3.0], [20000, -120.0, 7.0], [30000, -80.0, 11.0]]
+    assert peers.first_reach(curve, -100.0) == (30000, 11.0)
+    assert peers.first_reach(curve, -50.0) is None
+    runs = {
+        "a": [{"steps": 30000, "curve": curve}],
+        "b": [{"steps": 30000, "curve": [[30000, -500.0, 9.0]]}],
+    }
+    rows = peers.case_table("X", runs, random_policy=-500.0)
+    # best final -80; 90% of the way from -500: -500 + 0.9 * 420 = -122
+    assert "-122.0" in rows[-1]
+    assert rows[0].endswith("| 20000 | 7 |")  # a reaches -120 >= -122 at 2e4 steps
+    assert rows[1].endswith("| never | never |")
+
+
+def test_behaviour_cloning_copies_a_teacher():
+    from stable_baselines3 import PPO
+
+    env = gym.make("CartPole-v1")
+
+    class Left:  # a teacher that always pushes left
+        def predict(self, batch):
+            return np.zeros(len(batch), dtype=np.int64)
+
+    obs, actions = peers.demonstrations(env, Left(), 300, seed=0)
+    assert obs.shape == (300, 4) and (actions == 0).all()
+    policy = PPO("MlpPolicy", env, seed=0, device="cpu").policy
+    peers.clone_steps(policy, obs, actions, 200, np.random.default_rng(0))
+    assert (policy.predict(obs, deterministic=True)[0] == 0).all()
