@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import user_envs  # noqa: E402  (the suites, their teachers and their evaluation episodes)
+import user_envs  # (the suites, their teachers and their evaluation episodes)
 
 LEARNERS = ("tlac", "ppo", "bc-ppo", "dagger")
 MILESTONES = (10_000, 20_000, 50_000, 100_000)
