@@ -457,3 +457,15 @@ def _fault_then_resume(fault: str, run: Path, tmp_path: Path) -> None:
     )
     assert resumed.returncode == 0, resumed.stderr
     assert (run / "result.json").exists()
+
+
+def test_eval_of_a_garbage_sb3_zip_with_trust_pickle_is_one_line(made, tmp_path, capsys):
+    run = tmp_path / "run"
+    shutil.copytree(made["run"], run)
+    (run / "model.pt").unlink()
+    (run / "model.zip").write_bytes(b"not a zip file" * 40)
+    config = yaml.safe_load((run / "config.yaml").read_text())
+    config["algo"] = "ppo"
+    (run / "config.yaml").write_text(yaml.safe_dump(config))
+    line = one_line_error(["eval", str(run), "--episodes", "1", "--trust-pickle"], capsys)
+    assert f"'{run / 'model.zip'}' is not a loadable ppo model (SB3 zip)" in line

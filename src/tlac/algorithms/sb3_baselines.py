@@ -28,6 +28,7 @@ Preset keys are translated to SB3 arguments by :func:`sb3_kwargs` (a pure functi
 from __future__ import annotations
 
 import inspect
+import zipfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, ClassVar
@@ -406,7 +407,13 @@ class _SB3Baseline:
         obj = cls.__new__(cls)
         obj.hyperparameters, obj.seed, obj.recorder = {}, 0, None
         obj._target_kl_schedule = None
-        obj.model = _SB3_CLASSES[cls.name].load(str(p), env=env, device="cpu")
+        try:
+            obj.model = _SB3_CLASSES[cls.name].load(str(p), env=env, device="cpu")
+        except (ValueError, KeyError, RuntimeError, EOFError, OSError, zipfile.BadZipFile) as exc:
+            problem = " ".join(str(exc).split())[:200]
+            raise ConfigError(
+                f"{str(p)!r} is not a loadable {cls.name} model (SB3 zip): {problem}"
+            ) from None
         stats = p.with_name(p.name.removesuffix(".zip") + NORMALIZATION_SUFFIX)
         obj._obs_stats = dict(np.load(stats)) if stats.exists() else None
         return obj
