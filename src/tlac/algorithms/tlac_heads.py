@@ -14,7 +14,6 @@ from typing import TYPE_CHECKING, Any
 import gymnasium as gym
 import numpy as np
 import torch
-from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
 from torch import nn
 
 from tlac.algorithms import losses
@@ -37,6 +36,7 @@ from tlac.algorithms.nets import (
 )
 from tlac.algorithms.normalization import Normalizer
 from tlac.algorithms.obs_spaces import ObsEncoder, ObsLayout, ObsPolicy, make_layout
+from tlac.algorithms.optim import ForeachRMSpropTFLike
 from tlac.errors import ConfigError
 from tlac.memory import FLOAT_BYTES, check_fits, mlp_params, network_bytes
 from tlac.presets import make_schedule
@@ -200,7 +200,7 @@ class TLACHeads:
         x = self._replay_input(obs)
         with torch.no_grad():
             high = self.net.forward_member(x, HIGH)[0][:, : self.n_choices]
-        low, hidden = self.net.forward_member(x, LOW)
+        low, hidden = self.net.forward_member_leaves(x, LOW)  # the step folds its gradient in
         return high, low[:, : self.net.out_dims[LOW]], hidden[:, : self.config.net_arch_low[-1]]
 
     def _replay_input(self, obs: torch.Tensor) -> torch.Tensor:
@@ -471,4 +471,5 @@ def make_optimizer(cfg: TLACConfig, params: list[nn.Parameter]) -> torch.optim.O
     lr0 = make_schedule(cfg.learning_rate, "learning_rate")(1.0)
     if cfg.optimizer == "adam":
         return torch.optim.Adam(params, lr=lr0, eps=cfg.optimizer_eps, foreach=True)
-    return RMSpropTFLike(params, lr=lr0, alpha=0.99, eps=cfg.optimizer_eps)  # SB3 A2C's alpha
+    # SB3's RMSpropTFLike, stepped with one call per operation (tlac.algorithms.optim)
+    return ForeachRMSpropTFLike(params, lr=lr0, alpha=0.99, eps=cfg.optimizer_eps)  # A2C's alpha

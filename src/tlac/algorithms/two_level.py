@@ -52,6 +52,7 @@ from tlac.algorithms.nets import (
     np_log_softmax,
 )
 from tlac.algorithms.obs_spaces import POLICIES, ObsPolicy
+from tlac.algorithms.optim import clip_grad_norm
 from tlac.algorithms.rollout import Rollout, compute_gae
 from tlac.algorithms.tlac_config import VARIANT_DEFAULTS, TLACConfig, resolve_settings  # noqa: F401  (VARIANT_DEFAULTS: re-exported)
 from tlac.algorithms.tlac_heads import TLACHeads, make_optimizer
@@ -383,9 +384,12 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         return loss, kls.detach(), (high_logits, low_out, latent)
 
     def _gradient_step(self, loss: torch.Tensor) -> None:
-        self.optimizer.zero_grad(set_to_none=True)
+        for p in self.params:  # the optimiser's zero_grad(set_to_none=True), without its hooks
+            p.grad = None
         loss.backward()
-        norm = nn.utils.clip_grad_norm_(self.params, self.config.max_grad_norm, foreach=True)
+        self.net.fold_member_grads()  # the replayed rows' (tlac_heads._replay_heads)
+        grads = [p.grad for p in self.params if p.grad is not None]
+        norm = clip_grad_norm(grads, self.config.max_grad_norm)  # clip_grad_norm_'s arithmetic
         stop_if_not_finite(norm, "TL-AC", self.num_timesteps, "gradient norm")
         self.optimizer.step()
 
@@ -397,6 +401,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         (Adam's step count aside, which its state shares over the stack)."""
         self.optimizer.zero_grad(set_to_none=True)
         loss.backward()
+        self.net.fold_member_grads()  # the replayed rows' (tlac_heads._replay_heads)
         stacked = [p for p in self.net.parameters() if p.grad is not None]
         log_std_grad = None if self.log_std is None else self.log_std.grad
         own = {} if log_std_grad is None else {LOW: [log_std_grad]}  # the low level's own
