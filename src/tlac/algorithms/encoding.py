@@ -49,14 +49,21 @@ class OneHotEncoder:
         self.offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
         self.sizes = sizes
         self.out_dim = int(sizes.sum())
+        self._max = (sizes - 1).astype(np.int64)
         self._low_t = torch.from_numpy(self.low)
         self._offsets_t = torch.from_numpy(self.offsets)
-        self._max_t = torch.from_numpy(sizes - 1)
+        self._max_t = torch.from_numpy(self._max)
 
     def numpy(self, x: np.ndarray) -> np.ndarray:
-        idx = np.clip(np.rint(x).astype(np.int64) - self.low, 0, self.sizes - 1) + self.offsets
+        # called for every acting step: in-place integer ops and one fancy assignment (half
+        # the time of np.clip and np.put_along_axis on a row of DoorKey's 147 values)
+        idx = np.rint(x).astype(np.int64)
+        idx -= self.low
+        np.maximum(idx, 0, out=idx)
+        np.minimum(idx, self._max, out=idx)
+        idx += self.offsets
         out = np.zeros((len(x), self.out_dim), dtype=np.float32)
-        np.put_along_axis(out, idx, 1.0, axis=1)
+        out[np.arange(len(x))[:, None], idx] = 1.0
         return out
 
     def torch(self, x: torch.Tensor) -> torch.Tensor:

@@ -102,7 +102,9 @@ def _weighted_mean(x: torch.Tensor, weights: torch.Tensor | None) -> torch.Tenso
     return (x * weights).sum(dim=1) / weights.sum(dim=1).clamp(min=1.0)
 
 
-def informative_trust(trust: torch.Tensor, distributions: torch.Tensor) -> torch.Tensor:
+def informative_trust(
+    trust: torch.Tensor, distributions: torch.Tensor, information: torch.Tensor | None = None
+) -> torch.Tensor:
     """``(B, K)``: ``trust`` re-weighted by how much each teacher's advice says in each state.
 
     ``distributions`` ``(K, B, A)``: each teacher's distribution over the ``A`` actions. A
@@ -110,7 +112,9 @@ def informative_trust(trust: torch.Tensor, distributions: torch.Tensor) -> torch
     the uniform distribution (a random teacher, a partial teacher outside its region), which
     says nothing about which action is right. ``trust[s, k] * info[k, s]`` is rescaled so that
     each state keeps its total trust; a state where every trusted teacher is uniform gets no
-    imitation at all.
+    imitation at all. ``information`` ``(K, B)``: :func:`advice_information` of
+    ``distributions`` when the caller has it already (the update computes it once for all the
+    states it replays).
 
     >>> uniform, point = torch.full((3,), 1 / 3), torch.tensor([0.0, 1.0, 0.0])
     >>> dists = torch.stack([torch.stack([point, uniform]), torch.stack([uniform, uniform])])
@@ -119,7 +123,9 @@ def informative_trust(trust: torch.Tensor, distributions: torch.Tensor) -> torch
     """
     if distributions.shape[-1] < 2:
         return trust
-    weighted = trust * advice_information(distributions).T  # (B, K)
+    if information is None:
+        information = advice_information(distributions)
+    weighted = trust * information.T  # (B, K)
     total = weighted.sum(1, keepdim=True)
     scale = torch.where(total > 0, trust.sum(1, keepdim=True) / total.clamp_min(1e-12), 0.0)
     return weighted * scale

@@ -181,12 +181,21 @@ class TLACHeads:
             scale = IMITATION_STD * half.reshape(-1)
             self._imitation_scale = torch.as_tensor(scale, dtype=torch.float32)
 
+    def _update_rows(self, obs: torch.Tensor) -> torch.Tensor:
+        """The rollout's rows as :meth:`_heads` takes them, for all of an update's minibatches:
+        encoded here, once per update, when the encoding has no weights (one-hot, raw parts: a
+        fixed function of each row, so every minibatch sees the values its own encoding gave);
+        else the rows as they are (a CNN encodes them in every pass, with autograd)."""
+        if self.encoder is None or self._extractor_params:
+            return obs
+        return self.encoder.torch(obs)
+
     def _heads(
-        self, obs: torch.Tensor
+        self, x: torch.Tensor
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
-        """Training pass: (high logits, low output (logits or Gaussian mean), value, low-level
-        last hidden layer), with autograd."""
-        out, hidden = self.net(obs if self.encoder is None else self.encoder.torch(obs))
+        """Training pass on rows of :meth:`_update_rows`: (high logits, low output (logits or
+        Gaussian mean), value, low-level last hidden layer), with autograd."""
+        out, hidden = self.net(self.encoder.torch(x) if self._extractor_params else x)
         return (
             out[HIGH, :, : self.n_choices],
             out[LOW, :, : self.net.out_dims[LOW]],
@@ -321,13 +330,15 @@ class TLACHeads:
         low_out: torch.Tensor,
         latent: torch.Tensor,
         advice: torch.Tensor,
+        information: torch.Tensor | None = None,
     ) -> torch.Tensor:
         """DAgger on replayed states: each teacher's advice weighted by the high level's trust
         in that teacher (the softmax over the teachers' logits only; no gradient), re-weighted
-        (discrete actions) by how much its advice says there (losses.informative_trust)."""
+        (discrete actions) by how much its advice says there (losses.informative_trust;
+        ``information``: losses.advice_information of ``advice``, if computed already)."""
         trust = torch.softmax(high_logits.detach()[:, : self.n_teachers], -1)
         if self.discrete:  # advice: (K, B, A) distributions
-            trust = losses.informative_trust(trust, advice)
+            trust = losses.informative_trust(trust, advice, information)
         return losses.imitation_loss(self._advice_nll(low_out, latent, advice), trust)
 
     def _mean_entropies(

@@ -110,3 +110,55 @@ def summarize_update(log: UpdateLog, levels: int) -> dict[str, float]:
     if len(fractions) > 1:
         out["train/clip_fraction_high"] = fractions[1]
     return out
+
+
+class ReplayDraws:
+    """The imitation term's replayed rows for a whole update, drawn in one call.
+
+    Every minibatch of an update replays ``batch_size`` rows of the advice buffer drawn
+    uniformly with replacement (:meth:`tlac.algorithms.graduation.AdviceBuffer.sample`). Drawing
+    them one minibatch at a time cost a draw, two gathers and an encoding per minibatch; here
+    the rows of every minibatch the update may take are drawn at once, from a copy of the
+    generator, and :meth:`finish` then advances the generator itself by the draws of the
+    minibatches actually taken (the KL stop may end an update early). ``torch.randint`` on the
+    CPU draws its values one after the other, so ``k`` draws of ``n`` rows are the first
+    ``k * n`` values of one draw: the rows and the generator's state are exactly those of one
+    draw per minibatch.
+
+    >>> g = torch.Generator().manual_seed(0)
+    >>> draws = ReplayDraws(size=100, batch_size=4, max_batches=3, generator=g)
+    >>> rows = draws.idx[draws.next()]
+    >>> draws.finish()   # one minibatch taken: the generator moves by its 4 draws only
+    >>> ref = torch.Generator().manual_seed(0)
+    >>> torch.equal(rows, torch.randint(100, (4,), generator=ref)), g.get_state().equal(ref.get_state())
+    (True, True)
+    """
+
+    def __init__(self, size: int, batch_size: int, max_batches: int, generator: torch.Generator):
+        self.size, self.batch_size, self.generator = size, batch_size, generator
+        peek = torch.Generator().set_state(generator.get_state())
+        self.idx = torch.randint(size, (batch_size * max_batches,), generator=peek)
+        self.taken = 0
+
+    def next(self) -> slice:
+        """The positions in :attr:`idx` of the next minibatch's rows."""
+        start = self.taken * self.batch_size
+        self.taken += 1
+        return slice(start, start + self.batch_size)
+
+    def finish(self) -> None:
+        """Advance the generator by the rows of the minibatches taken, as their own draws did."""
+        if self.taken:
+            torch.randint(self.size, (self.taken * self.batch_size,), generator=self.generator)
+
+
+@dataclass(frozen=True)
+class ReplayPlan:
+    """The replayed rows of an update's minibatches (TLAC._replay_plan): which rows, and
+    their advice and its information, gathered once for all of them."""
+
+    draws: ReplayDraws
+    advice: torch.Tensor
+    """``(n_teachers, rows, ...)``: the advice in every drawn row, in draw order."""
+    information: torch.Tensor | None
+    """``(n_teachers, rows)``: losses.advice_information of ``advice`` (discrete actions)."""

@@ -62,6 +62,8 @@ from tlac.algorithms.tlac_io import (
     progress_text,
 )
 from tlac.algorithms.tlac_update import (
+    ReplayDraws,
+    ReplayPlan,
     RowWeights,
     UpdateLog,
     row_weights,
@@ -290,6 +292,12 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         rows = row_weights(
             cfg, data, self.n_teachers, self.train_high, self.solo is not None, has_advice, silent
         )
+        # what every minibatch reads, prepared once: the rollout's rows as the networks see
+        # them, and the replayed rows (indices, advice) of every minibatch the update may take
+        x = self._update_rows(data["obs"] if self.normalizer is None else data["net_obs"])
+        replay = None
+        if imitates:
+            replay = self._replay_plan(cfg.n_epochs * -(-n // cfg.batch_size))
         log = UpdateLog()
         per_level = cfg.update_rule == "per_level"
         running = torch.ones(rows.old_log_probs.shape[0], dtype=torch.bool)  # [low, high]
@@ -299,7 +307,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             for start in range(0, n, cfg.batch_size):
                 idx = perm[start : start + cfg.batch_size]
                 loss, kls, heads = self._minibatch_loss(
-                    data, idx, rows, clip, distill if imitates else None, log
+                    data, idx, rows, clip, distill if imitates else None, log, x, replay
                 )
                 # SB3's rule: stop before a step that moves too far (per level, or all at once)
                 too_far = (
@@ -318,6 +326,8 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 self._gradient_step(loss)
             if (not running.any()) if per_level else log.stopped_early:
                 break
+        if replay is not None:
+            replay.draws.finish()  # the generator as if each minibatch had drawn its own rows
         out = summarize_update(log, rows.old_log_probs.shape[0])
         out["train/explained_variance"] = losses.explained_variance(data["values"], data["returns"])
         out["train/n_updates"] = self._n_updates
@@ -350,15 +360,20 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         clip: float,
         distill: float | None,
         log: UpdateLog,
+        x: torch.Tensor | None = None,
+        replay: ReplayPlan | None = None,
     ) -> tuple[torch.Tensor, torch.Tensor, tuple[torch.Tensor, torch.Tensor, torch.Tensor]]:
         """One minibatch's loss (both levels' clipped surrogates, the critic's error, and the
         graduate variant's terms), each level's approximate KL ``[low, high]``, and the heads
-        it used."""
+        it used. ``x``: the rollout's rows as :meth:`_heads` takes them (_update_rows; None:
+        made here); ``replay``: the update's replayed rows (None: planned here, for one
+        minibatch)."""
         cfg = self.config
+        if x is None:
+            x = self._update_rows(data["obs"] if self.normalizer is None else data["net_obs"])
         adv = data["advantages"][idx]  # one advantage for both levels (Eq. 6)
         adv = losses.normalize(adv) if cfg.normalize_advantage else adv
-        net_obs = data["obs"] if self.normalizer is None else data["net_obs"]
-        high_logits, low_out, values, latent = self._heads(net_obs[idx])
+        high_logits, low_out, values, latent = self._heads(x[idx])
         # low level, Eq. 3: log pi_low(a|s) A(s, a) on the EXECUTED actions
         lp_low = self._low_log_prob(low_out, latent, data["actions"][idx])
         log_probs = lp_low[None]
@@ -373,7 +388,11 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         vf_loss = losses.value_loss(values, data["returns"][idx])  # Eq. 5
         loss = policy_losses.sum() + cfg.vf_coef * vf_loss
         if distill is not None:
-            imitation = self._replayed_imitation()
+            one_off = replay is None
+            replay = self._replay_plan(1) if replay is None else replay
+            imitation = self._replayed_imitation(replay)
+            if one_off:
+                replay.draws.finish()
             loss = loss + distill * imitation
             log.imitation.append(imitation.detach())
         if self._use_entropy:  # skipped when both coefficients are 0 (Table 5)
@@ -448,13 +467,27 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         if worth:
             self.deployed = self._snapshot_student()
 
-    def _replayed_imitation(self) -> torch.Tensor:
-        """The imitation term on a minibatch of states replayed from the advice buffer."""
+    def _replay_plan(self, max_batches: int) -> ReplayPlan:
+        """The states the imitation term replays in each of up to ``max_batches`` minibatches,
+        drawn from the advice buffer at once (the same rows, and the same generator state after
+        the update, as one draw per minibatch: tlac_update.ReplayDraws), with their advice and
+        (discrete actions) its information, computed once."""
         assert self.advice_buffer is not None
-        obs, advice = self.advice_buffer.sample(
-            self.config.imitation_batch_size, self._replay_generator
+        buffer = self.advice_buffer
+        draws = ReplayDraws(
+            len(buffer), self.config.imitation_batch_size, max_batches, self._replay_generator
         )
-        return self._imitation_term(*self._replay_heads(obs), advice)
+        advice = buffer.advice[draws.idx].transpose(0, 1)  # (n_teachers, rows, ...)
+        information = losses.advice_information(advice) if self.discrete else None
+        return ReplayPlan(draws, advice, information)
+
+    def _replayed_imitation(self, replay: ReplayPlan) -> torch.Tensor:
+        """The imitation term on the next minibatch of states replayed from the advice buffer."""
+        assert self.advice_buffer is not None
+        rows = replay.draws.next()
+        obs = self.advice_buffer.obs[replay.draws.idx[rows]]
+        information = None if replay.information is None else replay.information[:, rows]
+        return self._imitation_term(*self._replay_heads(obs), replay.advice[:, rows], information)
 
     def learn(
         self,
