@@ -42,10 +42,23 @@ class ForeachRMSpropTFLike(RMSpropTFLike):
             # avg = square_avg.add(eps).sqrt_(); p.addcdiv_(grad, avg, value=-lr)
             torch._foreach_mul_(squares, alpha)
             torch._foreach_addcmul_(squares, grads, grads, value=1 - alpha)
-            avg = torch._foreach_add(squares, group["eps"])
+            # square_avg.add(eps), written into buffers kept from step to step: a fresh
+            # 3 x 1029 x 64 tensor per step cost as much as the addition itself
+            avg = [
+                torch.add(s, group["eps"], out=self._scratch(p))
+                for p, s in zip(params, squares, strict=True)
+            ]
             torch._foreach_sqrt_(avg)
             torch._foreach_addcdiv_(params, grads, avg, value=-group["lr"])
         return None
+
+    def _scratch(self, p: torch.Tensor) -> torch.Tensor:
+        """A buffer of parameter ``p``'s shape, the same one at every step (not part of the
+        optimiser's state: its state_dict and checkpoints stay SB3's)."""
+        scratch: dict[int, torch.Tensor] = self.__dict__.setdefault("_scratch_buffers", {})
+        if id(p) not in scratch or scratch[id(p)].shape != p.shape:
+            scratch[id(p)] = torch.empty_like(p, memory_format=torch.preserve_format)
+        return scratch[id(p)]
 
     def _square_avg(self, p: torch.Tensor) -> torch.Tensor:
         """``p``'s running square average, counting the step (SB3's state, started at 1)."""
