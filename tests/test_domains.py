@@ -13,6 +13,7 @@ import pytest
 
 import tlac
 from tlac import TLAC
+from tlac.cli import main
 from tlac.domains import domain_names, get_domain, register_domain
 from tlac.errors import ConfigError
 
@@ -63,7 +64,15 @@ def test_a_domain_file_that_is_not_there_or_not_a_domain() -> None:
         get_domain(f"{EXAMPLE}:pd_controller")
 
 
-def test_tlac_train_and_an_experiment_config_take_a_domain_file(tmp_path: Path) -> None:
+def test_tlac_train_and_an_experiment_config_take_a_domain_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The commands that train import a domain file; `tlac experiment list` and `tlac report`
+    do not (issue 44): they name the runs after the Domain's name the grid recorded."""
+    marker = tmp_path / "code-ran"
+    mine = tmp_path / "mine.py"
+    source = EXAMPLE.read_text().replace('name="cartpole-pd"', 'name="cartpole-" + "pd"')
+    mine.write_text(source + f"\nopen({str(marker)!r}, 'w').close()  # proof of an import\n")
     out = tmp_path / "run"
     cli = [sys.executable, "-m", "tlac.cli"]
     proc = subprocess.run(
@@ -71,7 +80,7 @@ def test_tlac_train_and_an_experiment_config_take_a_domain_file(tmp_path: Path) 
             *cli,
             "train",
             "--env",
-            f"{EXAMPLE}:DOMAIN",
+            f"{mine}:DOMAIN",
             "--steps",
             "256",
             "--out",
@@ -88,10 +97,14 @@ def test_tlac_train_and_an_experiment_config_take_a_domain_file(tmp_path: Path) 
     assert (out / "result.json").exists() and "left" in (out / "teacher_usage.csv").read_text()
     config = tmp_path / "grid.yaml"
     config.write_text(
-        f"name: mine\ndomain: {EXAMPLE}:DOMAIN\nsteps: 256\nseeds: 1\n"
+        "name: mine\ndomain: mine.py:DOMAIN\nsteps: 256\nseeds: 1\n"
         "teacher_sets:\n  pd-random: {teachers: [pd, random]}\n"
         "algorithms:\n  - name: tlac\n"
     )
+    marker.unlink()
+    assert main(["experiment", "list", str(config)]) == 0
+    assert "not yet trained" in capsys.readouterr().out  # no literal name="..." to read
+    assert not marker.exists()
     grid = tmp_path / "grid"
     proc = subprocess.run(
         [*cli, "experiment", "run", str(config), "--out", str(grid), "--workers", "1"],
@@ -100,5 +113,12 @@ def test_tlac_train_and_an_experiment_config_take_a_domain_file(tmp_path: Path) 
         timeout=300,
     )
     assert proc.returncode == 0, proc.stderr
+    assert marker.exists()
     assert [p.name for p in (grid / "runs").iterdir()] == ["cartpole-pd__pd-random__tlac__seed0"]
     assert (grid / "runs" / "cartpole-pd__pd-random__tlac__seed0" / "result.json").exists()
+    marker.unlink()
+    assert main(["experiment", "list", str(config), "--out", str(grid)]) == 0
+    assert "finished  cartpole-pd__pd-random__tlac__seed0" in capsys.readouterr().out
+    assert main(["report", str(grid)]) == 0
+    assert (grid / "report.md").is_file()
+    assert not marker.exists()

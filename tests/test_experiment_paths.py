@@ -4,6 +4,7 @@ copy in ``DIR/experiment.yaml`` names the same file, and a missing file names bo
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -14,9 +15,9 @@ import pytest
 import yaml
 
 from tlac.errors import ConfigError
-from tlac.experiments.config import load_config, parse_config
+from tlac.experiments.config import declared_domain_name, load_config, parse_config
 from tlac.experiments.grid import expand_grid
-from tlac.experiments.runner import prepare_out_dir, spec_mismatch
+from tlac.experiments.runner import prepare_out_dir, spec_mismatch, with_recorded_domain
 from tlac.run import RunSpec
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -114,3 +115,25 @@ def test_tlac_experiment_list_from_another_cwd(tmp_path: Path, elsewhere: Path) 
     )
     assert proc.returncode == 0, proc.stderr
     assert "cartpole-pd__pd-random__tlac__seed0" in proc.stdout
+
+
+def test_a_domain_files_name_is_read_without_importing_it(tmp_path: Path) -> None:
+    """What reports and listings do (issue 44): the Domain's name from the grid's
+    domain.json, else from the file's source (a literal name=...), never by running it."""
+    assert declared_domain_name(f"{EXAMPLE}:DOMAIN") == "cartpole-pd"
+    assert declared_domain_name(f"{EXAMPLE}:OTHER") is None
+    assert declared_domain_name("no/such/file.py:DOMAIN") is None
+    data = yaml.safe_load(f"domain: gone.py:DOMAIN\n{GRID}")
+    config = parse_config(data, str(tmp_path / "grid.yaml"), import_domain=False)
+    assert config.domain == f"{tmp_path / 'gone.py'}:DOMAIN" and config.domain_name is None
+    with pytest.raises(ConfigError, match="recorded when the grid is trained"):
+        expand_grid(config)
+    record = tmp_path / "domain.json"
+    record.write_text(json.dumps({"domain": "/moved/from/gone.py:DOMAIN", "name": "mine"}))
+    runs = expand_grid(with_recorded_domain(config, tmp_path))
+    assert [r.name for r in runs] == ["mine__pd-random__tlac__seed0"]
+    record.write_text(json.dumps({"domain": "/moved/from/other.py:DOMAIN", "name": "mine"}))
+    assert with_recorded_domain(config, tmp_path).domain_name is None  # another domain's
+    record.write_text(json.dumps({"domain": "gone.py:DOMAIN", "name": "../up"}))
+    with pytest.raises(ConfigError, match=r"domain.json'.*expected"):
+        with_recorded_domain(config, tmp_path)

@@ -40,9 +40,17 @@ def _experiment_run(args: argparse.Namespace) -> int:
 def _experiment_list(args: argparse.Namespace) -> int:
     from tlac.experiments.config import load_config
     from tlac.experiments.grid import expand_grid
-    from tlac.experiments.runner import grid_status, select_runs
+    from tlac.experiments.runner import grid_status, select_runs, with_recorded_domain
 
-    config = load_config(args.config)
+    config = load_config(args.config, import_domain=False)  # a domain file is never run here
+    if args.out:
+        config = with_recorded_domain(config, args.out)
+    if config.domain_name is None:
+        print(
+            f"{config.name}: {config.domain}: not yet trained (its runs are named after the "
+            "domain's own name, recorded by 'tlac experiment run'; listing does not import it)"
+        )
+        return 0
     rows = grid_status(config, args.out, args.only) if args.out else None
     runs = select_runs(expand_grid(config), args.only)
     print(

@@ -61,6 +61,9 @@ class Domain:
     """Episode length limit (time-limit truncation), for documentation and evaluation."""
 
 
+DOMAIN_NAME = r"[A-Za-z0-9][A-Za-z0-9._-]*"
+"""What a domain's name may be (it names run folders and the Gymnasium id ``tlac/<name>-v0``)."""
+
 # name -> "module:attribute" of its Domain object
 _DOMAINS: dict[str, str] = {
     "doorkey": "tlac.domains.doorkey:DOMAIN",
@@ -121,9 +124,7 @@ def register_domain(domain: Domain, replace: bool = False) -> Domain:
         raise ConfigError(
             f"register_domain takes a tlac.domains.Domain, got {type(domain).__name__}"
         )
-    if not isinstance(domain.name, str) or not re.fullmatch(
-        r"[A-Za-z0-9][A-Za-z0-9._-]*", domain.name
-    ):
+    if not isinstance(domain.name, str) or not re.fullmatch(DOMAIN_NAME, domain.name):
         raise ConfigError(
             f"a domain name must be letters, digits and . _ - (it names run folders and the "
             f"Gymnasium id tlac/<name>-v0), got {domain.name!r}"
@@ -291,4 +292,6 @@ def make_vec_env(
     factories = [domain.make_env for _ in range(n_envs)]
     venv = SubprocVecEnv(factories) if subprocesses else DummyVecEnv(factories)
     venv.seed(seed)
-    return EpisodeRecorder(venv, episodes_csv)
+    recorder = EpisodeRecorder(venv, episodes_csv)
+    recorder.domain_name = domain.name
+    return recorder

@@ -25,6 +25,7 @@ algorithm 'foo'; expected one of: tlac, ppo, a2c, dqn-tlql, ac-teach``.
 
 from __future__ import annotations
 
+import ast
 import os
 import re
 from dataclasses import dataclass, field
@@ -33,7 +34,7 @@ from typing import Any
 
 from tlac.algorithms import NO_ADVICE, algorithm_names
 from tlac.algorithms.common import MAX_SEED
-from tlac.domains import domain_names, get_domain
+from tlac.domains import DOMAIN_NAME, domain_names, get_domain
 from tlac.errors import ConfigError, TlacError, read_yaml_file
 from tlac.presets import load_preset, preset_names
 from tlac.run import SELECTORS
@@ -195,6 +196,11 @@ class ExperimentConfig:
     """Free text for the report."""
     source: str = ""
     """The file it was loaded from (for messages)."""
+    domain_name: str | None = None
+    """The Domain's own name, which prefixes the run folders' names: :attr:`domain` itself
+    for a registered name; for a module or file, its Domain's ``name`` when it was imported,
+    else what ``DIR/domain.json`` recorded or the file declares (:func:`declared_domain_name`),
+    ``None`` when neither is known."""
     raw: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
     """The YAML mapping as loaded (copied to ``DIR/experiment.yaml``: :meth:`raw_in`)."""
 
@@ -370,12 +376,46 @@ def resolve_domain_file(spec: str, folder: str | Path, source: str = "<experimen
     )
 
 
-def _domain(f: _Fields, value: Any, folder: Path) -> tuple[str, Any]:
+def declared_domain_name(spec: str) -> str | None:
+    """The name that the domain file of ``spec`` (``path/my_domain.py:DOMAIN``) gives its
+    Domain, read from its source without running it: a top-level ``DOMAIN = Domain(name="...",
+    ...)`` (or ``Domain("...", ...)``). ``None`` for a module, a file that is not there or
+    does not parse, or a name given any other way."""
+    parts = domain_file(spec)
+    if parts is None:
+        return None
+    try:
+        tree = ast.parse(Path(parts[0]).read_bytes())
+    except (OSError, SyntaxError, ValueError):
+        return None
+    name = None
+    for node in tree.body:
+        if not (
+            isinstance(node, ast.Assign)
+            and any(isinstance(t, ast.Name) and t.id == parts[1] for t in node.targets)
+        ):
+            continue
+        name = None  # the last assignment counts
+        call = node.value
+        if isinstance(call, ast.Call):
+            given = [k.value for k in call.keywords if k.arg == "name"] + call.args[:1]
+            if given and isinstance(given[0], ast.Constant) and isinstance(given[0].value, str):
+                name = given[0].value
+    return name if name is not None and re.fullmatch(DOMAIN_NAME, name) else None
+
+
+def _domain(f: _Fields, value: Any, folder: Path, import_domain: bool) -> tuple[str, Any]:
     """The ``domain`` field: a registered name, or ``module:attribute`` /
-    ``file.py:attribute`` (a relative file resolved against ``folder``), imported; returns
-    (the name as the grid uses it, the Domain)."""
+    ``file.py:attribute`` (a relative file resolved against ``folder``), imported unless
+    ``import_domain`` is false; returns (the name as the grid uses it, the Domain or
+    ``None`` when not imported)."""
     if not (isinstance(value, str) and ":" in value):  # "module:attribute": imported
         value = f.choice("domain", value, "domain", domain_names())
+    elif not import_domain:
+        parts = domain_file(value)
+        if parts is not None and not Path(parts[0]).is_absolute():
+            value = f"{os.path.abspath(folder / parts[0])}:{parts[1]}"
+        return value, None
     value = resolve_domain_file(value, folder, f.source)
     try:
         return value, get_domain(value)
@@ -384,13 +424,19 @@ def _domain(f: _Fields, value: Any, folder: Path) -> tuple[str, Any]:
 
 
 def parse_config(
-    data: Any, source: str = "<experiment>", folder: str | Path | None = None
+    data: Any,
+    source: str = "<experiment>",
+    folder: str | Path | None = None,
+    import_domain: bool = True,
 ) -> ExperimentConfig:
     """Validate a loaded YAML mapping and build the :class:`ExperimentConfig`.
 
     A domain named by a relative file (``domain: my_domain.py:DOMAIN``) is resolved against
     ``folder`` (default: the folder of ``source``, the working directory for
     ``"<experiment>"``) and kept as an absolute path (:func:`resolve_domain_file`).
+    ``import_domain=False`` (what reports and listings read with) imports no module or file
+    named by the domain field: its teacher names and presets go unchecked, and its
+    :attr:`~ExperimentConfig.domain_name` is what the file declares (or ``None``).
     Raises :class:`ConfigError` naming ``source``, the field and what is accepted.
     """
     f = _Fields(source)
@@ -404,7 +450,11 @@ def parse_config(
             raise f.problem(required, "missing (required)")
 
     folder = Path(folder) if folder is not None else Path(source).parent
-    domain_name, domain = _domain(f, top["domain"], folder)
+    domain_name, domain = _domain(f, top["domain"], folder, import_domain)
+    if ":" not in domain_name:
+        run_prefix: str | None = domain_name
+    else:
+        run_prefix = domain.name if domain is not None else declared_domain_name(domain_name)
 
     name = f.slug(
         "name", top.get("name", Path(source).stem if source != "<experiment>" else "experiment")
@@ -457,7 +507,10 @@ def parse_config(
         if not isinstance(value, list) or not value:
             raise f.problem(path, f"expected a non-empty list of teacher names, got {value!r}")
         for i, t in enumerate(value):
-            f.choice(f"{path}[{i}]", t, f"teacher for {domain_name}", domain.teacher_names)
+            if domain is not None:
+                f.choice(f"{path}[{i}]", t, f"teacher for {domain_name}", domain.teacher_names)
+            else:
+                f.string(f"{path}[{i}]", t)
         teacher_sets.append(TeacherSet(key=key, teachers=tuple(value), label=label))
     set_keys = [ts.key for ts in teacher_sets]
 
@@ -473,7 +526,7 @@ def parse_config(
         if "name" not in entry:
             raise f.problem(f"{path}.name", "missing (required)")
         algo = f.choice(f"{path}.name", entry["name"], "algorithm", algorithm_names())
-        if algo not in domain.presets and entry.get("preset") is None:
+        if domain is not None and algo not in domain.presets and entry.get("preset") is None:
             raise f.problem(
                 f"{path}.name",
                 f"algorithm {algo!r} has no preset for domain {domain_name!r}; expected one of: "
@@ -568,13 +621,15 @@ def parse_config(
         metrics=metrics,
         description=f.string("description", description) if description else "",
         source=source,
+        domain_name=run_prefix,
         raw=dict(top),
     )
 
 
-def load_config(path: str | Path) -> ExperimentConfig:
-    """Read and validate an experiment YAML file (see the module docstring)."""
+def load_config(path: str | Path, import_domain: bool = True) -> ExperimentConfig:
+    """Read and validate an experiment YAML file (see the module docstring and
+    :func:`parse_config` for ``import_domain``)."""
     p = Path(path)
     if not p.is_file():
         raise ConfigError(f"{p}: experiment file not found")
-    return parse_config(read_yaml_file(p, "experiment file"), str(p))
+    return parse_config(read_yaml_file(p, "experiment file"), str(p), import_domain=import_domain)

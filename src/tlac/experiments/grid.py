@@ -11,6 +11,7 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
+from tlac.errors import ConfigError
 from tlac.experiments.config import NO_TEACHERS, ExperimentConfig
 from tlac.run import RESULT_FILE, RunSpec
 
@@ -32,18 +33,23 @@ class GridRun:
     spec: RunSpec
 
 
-def run_name(domain: str, teacher_set: str, algo_key: str, seed: int) -> str:
-    """The run's folder name. A domain given as ``module:attribute`` or ``file.py:attribute``
-    is named by its Domain's own name (a path must never become part of a folder name)."""
-    if ":" in domain:
-        from tlac.domains import get_domain
-
-        domain = get_domain(domain).name
-    return f"{domain}__{teacher_set}__{algo_key}__seed{seed}"
+def run_name(domain_name: str, teacher_set: str, algo_key: str, seed: int) -> str:
+    """The run's folder name. ``domain_name`` is the Domain's own name (for a domain given as
+    ``module:attribute`` or ``file.py:attribute``: a path must never become part of a folder
+    name), :attr:`ExperimentConfig.domain_name`."""
+    return f"{domain_name}__{teacher_set}__{algo_key}__seed{seed}"
 
 
 def expand_grid(config: ExperimentConfig) -> list[GridRun]:
-    """Every run of the experiment, in a stable order (teacher set, algorithm, seed)."""
+    """Every run of the experiment, in a stable order (teacher set, algorithm, seed). A
+    ConfigError when the runs' names are not known: a domain file or module that was not
+    imported, whose name neither ``DIR/domain.json`` nor the file's source gives."""
+    if config.domain_name is None:
+        raise ConfigError(
+            f"{config.source}: the runs are named after the Domain's name of {config.domain}, "
+            "recorded when the grid is trained ('tlac experiment run'), and this command does "
+            "not import the domain to read it"
+        )
     runs: list[GridRun] = []
     set_order = [NO_TEACHERS] + [ts.key for ts in config.teacher_sets]
     for set_key in set_order:
@@ -70,7 +76,7 @@ def expand_grid(config: ExperimentConfig) -> list[GridRun]:
                 )
                 runs.append(
                     GridRun(
-                        run_name(config.domain, set_key, algo.key, seed),
+                        run_name(config.domain_name, set_key, algo.key, seed),
                         set_key,
                         algo.key,
                         seed,

@@ -20,7 +20,12 @@ from tlac.errors import ConfigError, read_yaml_file
 from tlac.experiments.archive import RunStore
 from tlac.experiments.config import NO_TEACHERS, ExperimentConfig, parse_config
 from tlac.experiments.grid import ERROR_FILE, GridRun, expand_grid
-from tlac.experiments.runner import EXPERIMENT_FILE, TEACHERS_FILE, read_teachers
+from tlac.experiments.runner import (
+    EXPERIMENT_FILE,
+    TEACHERS_FILE,
+    read_teachers,
+    with_recorded_domain,
+)
 from tlac.run import RESULT_FILE
 
 EPISODES_FILE = "episodes.csv"
@@ -149,12 +154,16 @@ def read_run(store: RunStore, run: GridRun) -> RunData:
 
 def read_experiment(out_dir: str | Path) -> Experiment:
     """Read the experiment folder ``out_dir`` (its runs from their folders or from
-    ``runs.tar.xz``); a ConfigError when it is not one."""
+    ``runs.tar.xz``); a ConfigError when it is not one. A domain named by module or file is
+    not imported: the runs' names come from ``DIR/domain.json``
+    (:func:`~tlac.experiments.runner.with_recorded_domain`)."""
     out = Path(out_dir)
     cfg_path = out / EXPERIMENT_FILE
     if not cfg_path.exists():
         raise ConfigError(f"{out}: not an experiment folder ({EXPERIMENT_FILE} is missing)")
-    config = parse_config(read_yaml_file(cfg_path, "experiment file"), str(cfg_path))
+    data = read_yaml_file(cfg_path, "experiment file")
+    config = parse_config(data, str(cfg_path), import_domain=False)
+    config = with_recorded_domain(config, out)
     store = RunStore(out)
     runs = [read_run(store, r) for r in expand_grid(config)]
     teachers = read_teachers(out / TEACHERS_FILE)

@@ -27,6 +27,7 @@ import fnmatch
 import io
 import json
 import os
+import re
 import shutil
 import signal
 import sys
@@ -37,12 +38,13 @@ import traceback
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import yaml
 
+from tlac.domains import DOMAIN_NAME
 from tlac.errors import ConfigError
 from tlac.experiments.archive import RunStore
 from tlac.experiments.config import ExperimentConfig, domain_file
@@ -51,6 +53,10 @@ from tlac.run import RESULT_FILE, RunSpec, atomic_write_text, folder_lock
 
 EXPERIMENT_FILE = "experiment.yaml"
 TEACHERS_FILE = "teachers.json"
+DOMAIN_FILE = "domain.json"
+"""``{"domain": <the domain field, resolved>, "name": <its Domain's name>}``, written when a
+grid whose domain is a module or file is trained: the runs are named after the Domain's
+name, and reports and listings read it here rather than import the domain."""
 LOCK_FILE = ".lock"
 
 
@@ -152,7 +158,35 @@ def prepare_out_dir(
                 f"another --out, or delete that run folder to redo it"
             )
     atomic_write_text(out / EXPERIMENT_FILE, yaml.safe_dump(config.raw_in(out), sort_keys=False))
+    if ":" in config.domain and config.domain_name is not None:
+        record = {"domain": config.domain, "name": config.domain_name}
+        atomic_write_text(out / DOMAIN_FILE, json.dumps(record, indent=2) + "\n")
     return out
+
+
+def with_recorded_domain(config: ExperimentConfig, out_dir: str | Path) -> ExperimentConfig:
+    """``config`` with the Domain's name that ``DIR/domain.json`` recorded when the grid was
+    trained, for a domain named by module or file (which reports and listings do not import);
+    ``config`` unchanged where nothing was recorded for its domain. A record that is not
+    ``{"domain": ..., "name": ...}`` is a ConfigError naming the file."""
+    path = Path(out_dir) / DOMAIN_FILE
+    if ":" not in config.domain or not path.is_file():
+        return config
+    expected = 'expected {"domain": "<file.py:ATTR>", "name": "<letters, digits and . _ ->"}'
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"{str(path)!r}: not readable ({exc}); {expected}") from None
+    if not (
+        isinstance(data, dict)
+        and isinstance(data.get("domain"), str)
+        and isinstance(data.get("name"), str)
+        and re.fullmatch(DOMAIN_NAME, data["name"])
+    ):
+        raise ConfigError(f"{str(path)!r}: {expected}, got {str(data)[:60]!r}")
+    if data["domain"] != config.domain and not _same_file(data["domain"], config.domain):
+        return config
+    return replace(config, domain_name=data["name"])
 
 
 @contextlib.contextmanager
