@@ -15,6 +15,7 @@ import subprocess
 import sys
 import tempfile
 import textwrap
+import warnings
 from pathlib import Path
 
 import gymnasium as gym
@@ -174,6 +175,7 @@ def test_force_still_replaces_a_run(made, tmp_path):
         ("eval_episodes", "x", "eval_episodes must be an integer >= 0"),
         ("teacher_kinds", 5, "teachers must be a list of teacher names"),
         ("overrides", 7, "overrides must be a mapping"),
+        ("overrides", {"wings": 3}, "unknown TL-AC setting 'wings'"),
     ],
 )
 def test_resume_names_a_bad_value_in_config_yaml(key, value, fragment, made, tmp_path, capsys):
@@ -223,6 +225,37 @@ def test_eval_and_load_refuse_a_damaged_model(how, made, tmp_path, capsys):
     with pytest.raises(ConfigError) as info:
         TLAC.load(run / "model.pt")
     assert DAMAGE[how] in str(info.value)
+
+
+OTHER_ENV = "the model was trained on 'doorkey' and is used on 'doorkey-partial'"
+
+
+def test_a_model_used_on_another_domain_is_one_warning_line(made, tmp_path, capsys):
+    """A DoorKey model on doorkey-partial (the same observation shape) is said in one line by
+    tlac eval and TLAC.load(env=...); a model file without the name (an older tlac) is not
+    checked."""
+    from tlac import TLAC
+
+    run = tmp_path / "run"
+    shutil.copytree(made["run"], run)
+    assert torch.load(run / "model.pt", weights_only=True)["env_name"] == "doorkey"
+    config = yaml.safe_load((run / "config.yaml").read_text())
+    (run / "config.yaml").write_text(yaml.safe_dump({**config, "env": "doorkey-partial"}))
+    assert main(["eval", str(run), "--episodes", "1"]) == 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"tlac: warning: {OTHER_ENV}" in err
+    with pytest.warns(UserWarning, match=OTHER_ENV):
+        TLAC.load(run / "model.pt", env="doorkey-partial")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert TLAC.load(run / "model.pt", env="doorkey").env_name == "doorkey"
+        state = torch.load(run / "model.pt", weights_only=True)
+        del state["env_name"]  # as an older tlac saved it
+        torch.save(state, run / "model.pt")
+        assert TLAC.load(run / "model.pt", env="doorkey-partial").env_name == "doorkey-partial"
+    assert not [w for w in caught if "trained on" in str(w.message)]
+    assert main(["eval", str(run), "--episodes", "1"]) == 0
+    assert "warning" not in capsys.readouterr().err
 
 
 def test_a_dqn_tlql_model_with_nan_weights_is_refused(tmp_path):

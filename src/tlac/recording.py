@@ -238,6 +238,10 @@ class EpisodeRecorder(VecEnvWrapper):
     """Counts environment steps over all sub-environments and records finished episodes:
     ``path`` (episodes.csv: ``timestep,return,length``) and, beside it, ``monitor.csv``."""
 
+    domain_name: str | None = None
+    """The tlac domain whose environments these are (``tlac.domains.make_vec_env`` sets it):
+    the name a model trained on them records (``TLAC.save``)."""
+
     def __init__(self, venv: VecEnv, path: str | Path | None = None, window: int = 20):
         super().__init__(venv)
         episode_logs(venv)  # what a checkpoint keeps of the episodes in progress

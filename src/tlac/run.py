@@ -388,6 +388,10 @@ def resume_run(
     try:
         domain = spec.validate()
         hp = hyperparameters(spec)
+        check = getattr(get_algorithm(spec.algo), "check_hyperparameters", None)
+        if check is not None:  # the model comes from the checkpoint: refuse what it would ignore
+            check(hp)
+        check_in_process(hp)
     except ConfigError as exc:  # config.yaml edited by hand: say which file
         raise ConfigError(f"{str(out / 'config.yaml')!r}: {exc}") from None
     try:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TypeVar
@@ -85,6 +86,24 @@ def as_vec_env(env: Any, n_envs: int, seed: int, vec_env: str = "dummy") -> tupl
     if find_episode_recorder(venv) is None:
         venv = EpisodeRecorder(venv)
     return venv, None
+
+
+def env_name(env: Any, venv: VecEnv) -> str | None:
+    """The name a model records of the environment it is trained on (``TLAC.save``): a
+    domain's name (also for a VecEnv made by ``tlac.domains.make_vec_env``, as ``tlac
+    train`` makes them) or the Gymnasium id given as ``env``; ``None`` when unknown."""
+    recorder = find_episode_recorder(venv)
+    if recorder is not None and recorder.domain_name is not None:
+        return recorder.domain_name
+    return env if isinstance(env, str) else None
+
+
+def other_env_warning(trained_on: str, now: str) -> str:
+    """The one line said when a model meets another environment than it was trained on."""
+    return (
+        f"the model was trained on {trained_on!r} and is used on {now!r}: the observations "
+        "may have the same shape and mean something else"
+    )
 
 
 def as_teachers(
@@ -174,10 +193,16 @@ class TLACPersistence:
         self.num_timesteps = 0 if saved is None else int(saved["num_timesteps"])
         self._last_obs: np.ndarray | None = None
         self.env, domain, self.n_envs = None, None, 1
+        trained_on = None if saved is None else saved.get("env_name")
+        self.env_name = trained_on if isinstance(trained_on, str) else None
         if saved is None or env is not None:  # a loaded model steps its envs in-process
             vec_env = config.vec_env if saved is None else "dummy"
             self.env, domain = as_vec_env(env, config.n_envs, seed, vec_env)
             self.n_envs = self.env.num_envs
+            now = env_name(env, self.env)
+            if self.env_name is not None and now is not None and now != self.env_name:
+                warnings.warn(other_env_warning(self.env_name, now), stacklevel=4)
+            self.env_name = self.env_name or now
         if saved is None:
             obs_space, action_space = self.env.observation_space, self.env.action_space
             if config.batch_size > config.n_steps * self.n_envs:
@@ -238,6 +263,7 @@ class TLACPersistence:
             "observation_space": space_to_data(self.observation_space),
             "action_space": space_to_data(self.action_space),
             "teacher_names": self.teacher_names,
+            "env_name": self.env_name,
             "policy": self.obs_policy.to_data(),
             "net": self.net.state_dict(),
             "extractor": self.encoder.module.state_dict() if self._extractor_params else None,

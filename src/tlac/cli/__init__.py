@@ -194,6 +194,11 @@ def _cmd_eval(args: argparse.Namespace) -> int:
         check_trust_pickle(run / "model.zip", args.trust_pickle, "--trust-pickle")
     domain = get_domain(config["env"])
     model = load_run_model(run, config["algo"], trust_pickle=args.trust_pickle)
+    trained_on = getattr(model, "env_name", None)  # recorded by TL-AC's model files
+    if isinstance(trained_on, str) and trained_on != domain.name:
+        from tlac.algorithms.tlac_io import other_env_warning
+
+        print(f"tlac: warning: {other_env_warning(trained_on, domain.name)}", file=sys.stderr)
     seed = args.seed
     returns = evaluate_policy(
         lambda o: model.predict(o, deterministic=not args.stochastic)[0],
