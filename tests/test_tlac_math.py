@@ -256,3 +256,50 @@ def test_per_level_step_clips_each_network_alone_and_leaves_a_stopped_level_unto
         clipped = torch.sqrt(sum(p.grad[m].pow(2).sum() for p in model.net.parameters()))
         expected = min(float(raw[m]), model.config.max_grad_norm)
         assert clipped.item() == pytest.approx(expected, rel=1e-4)
+
+
+def test_foreach_rmsprop_and_clip_are_sb3s_and_torchs_bit_for_bit():
+    """ForeachRMSpropTFLike and optim.clip_grad_norm compute exactly what SB3's RMSpropTFLike
+    and torch's clip_grad_norm_ do (the golden digests rely on it), with SB3's state_dict."""
+    from tlac.algorithms.optim import ForeachRMSpropTFLike, clip_grad_norm
+
+    torch.manual_seed(0)
+    shapes = [(3, 20, 8), (3, 1, 8), (3, 8, 4), (4,)]
+    ref = [torch.nn.Parameter(torch.randn(s)) for s in shapes]
+    new = [torch.nn.Parameter(p.detach().clone()) for p in ref]
+    opts = [RMSpropTFLike(ref, lr=0.01, alpha=0.99, eps=1e-5)]
+    opts.append(ForeachRMSpropTFLike(new, lr=0.01, alpha=0.99, eps=1e-5))
+    for _ in range(5):
+        grads = [torch.randn(s) for s in shapes]
+        for p, g in zip(ref, grads, strict=True):
+            p.grad = g.clone()
+        for p, g in zip(new, grads, strict=True):
+            p.grad = g.clone()
+        norm = torch.nn.utils.clip_grad_norm_(ref, 0.5, foreach=True)
+        assert torch.equal(norm, clip_grad_norm([p.grad for p in new], 0.5))
+        for opt in opts:
+            opt.step()
+        assert all(torch.equal(a, b) for a, b in zip(ref, new, strict=True))
+    sb3, ours = (opt.state_dict()["state"] for opt in opts)
+    assert all(torch.equal(sb3[i]["square_avg"], ours[i]["square_avg"]) for i in sb3)
+    assert [sb3[i]["step"] for i in sb3] == [ours[i]["step"] for i in ours]
+
+
+def test_member_leaves_fold_the_gradient_autograd_gives_a_member():
+    """StackedMLP.forward_member_leaves + fold_member_grads: the stack's gradient is the one
+    autograd computes through forward_member (w[m]), bit for bit."""
+    torch.manual_seed(0)
+    net = StackedMLP(10, [[8, 8], [8, 8], [8, 8]], [3, 5, 1], [True] * 3, [0.01, 0.01, 1.0])
+    x, replayed = torch.randn(6, 10), torch.randn(7, 10)
+
+    def grads(member_pass):
+        for p in net.parameters():
+            p.grad = None
+        out, _ = net(x)
+        (out.square().sum() + member_pass(replayed, 1)[0].sin().sum()).backward()
+        net.fold_member_grads()
+        return [p.grad.clone() for p in net.parameters()]
+
+    expected = grads(net.forward_member)
+    got = grads(net.forward_member_leaves)
+    assert all(torch.equal(a, b) for a, b in zip(expected, got, strict=True))
