@@ -136,12 +136,15 @@ class ReplayDraws:
 
     def __init__(self, size: int, batch_size: int, max_batches: int, generator: torch.Generator):
         self.size, self.batch_size, self.generator = size, batch_size, generator
+        self.max_batches = max_batches
         peek = torch.Generator().set_state(generator.get_state())
         self.idx = torch.randint(size, (batch_size * max_batches,), generator=peek)
         self.taken = 0
 
     def next(self) -> slice:
         """The positions in :attr:`idx` of the next minibatch's rows."""
+        if self.taken == self.max_batches:
+            raise RuntimeError(f"only {self.max_batches} minibatches of rows were drawn")
         start = self.taken * self.batch_size
         self.taken += 1
         return slice(start, start + self.batch_size)
