@@ -224,10 +224,11 @@ for key in (
     "normalize_advantage",
     "use_sde",
     "wean_imitation",
-    "normalize_obs",
 ):
     for value in ("maybe", "1", "yes_please"):
         CLI_CASES.append(([*T, "--set", f"{key}={value}"], f"{key} must be true or false"))
+for value in ("maybe", "1", "yes_please"):  # a switch with an "auto" mode
+    CLI_CASES.append(([*T, "--set", f"normalize_obs={value}"], "normalize_obs must be"))
 for key, value in (
     ("variant", "exact"),
     ("optimizer", "sgd"),

@@ -189,10 +189,11 @@ class TLACConfig:
     the best such window so far (tlac.algorithms.graduation.worth_deploying), rather than
     whatever the last update left. None: the variant's (graduate 0.05, paper 0: no solo
     episodes, and ``predict`` uses the live weights)."""
-    normalize_obs: bool = False
+    normalize_obs: bool | str = False
     """Normalise the networks' observations by their running mean and std (SB3's VecNormalize,
-    clipped to +-10), inside TL-AC: teachers still see raw observations. Not with a
-    one-hot obs_encoding (categories have no scale)."""
+    clipped to +-10), inside TL-AC: teachers still see raw observations. true: refused where
+    observations are one-hot encoded or images (categories and pixels have no scale); auto:
+    on where the networks read the observations raw, off elsewhere (presets/default.yaml)."""
     normalize_reward: bool = False
     """Divide training rewards by the running std of the discounted return (SB3's
     VecNormalize); logged returns stay raw."""
@@ -298,6 +299,10 @@ class TLACConfig:
         ):
             check.number(name, getattr(self, name), 0.0)
         check.number("teacher_episodes", self.teacher_episodes, 0.0, 1.0)
+        if self.normalize_obs not in (True, False, "auto"):
+            raise ConfigError(
+                f"TL-AC setting normalize_obs must be true, false or 'auto', got {self.normalize_obs!r}"
+            )
         if self.teacher_episodes > 0 and not self.solo_budget:
             raise ConfigError(
                 "TL-AC setting teacher_episodes needs solo episodes (solo_budget > 0), "
