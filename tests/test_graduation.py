@@ -130,7 +130,8 @@ def test_python_api_uses_the_domain_preset():
 def test_a_users_environment_gets_the_default_preset():
     default = load_preset("default", "tlac")
     # docs/graduation.md, "Users' own environments": SB3 PPO's rollouts, the student's own
-    # policy gradient everywhere, the imitation weaned by competence, a fifth of episodes solo
+    # policy gradient everywhere, the imitation weaned by competence, a fifth of episodes solo,
+    # raw observations normalised, 30% of the assisted episodes led by one teacher
     expected = dict(
         n_steps=2048,
         batch_size=64,
@@ -144,6 +145,8 @@ def test_a_users_environment_gets_the_default_preset():
         low_level_data="agent",
         wean_imitation=True,
         solo_budget=0.2,
+        normalize_obs="auto",
+        teacher_episodes=0.3,
     )
     assert default == expected
     model = TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: 0], seed=0)
