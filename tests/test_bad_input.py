@@ -215,7 +215,7 @@ for key in ("learning_rate", "clip_range", "target_kl", "optimizer_eps"):
     CLI_CASES.append(([*T, "--set", f"{key}=0"], f"{key} must be > 0"))
 for key in ("vf_coef", "max_grad_norm", "ent_coef", "solo_budget", "ent_cap_high"):
     CLI_CASES.append(([*T, "--set", f"{key}=-0.5"], f"{key} must be >= 0"))
-for key in ("gamma", "gae_lambda"):
+for key in ("gamma", "gae_lambda", "teacher_episodes"):
     CLI_CASES.append(([*T, "--set", f"{key}=1.5"], f"{key} must be in [0, 1]"))
 for key in ("n_steps", "batch_size", "n_epochs", "imitation_batch_size", "imitation_buffer_size"):
     for value in ("0", "-3", "2.5", "abc", "true"):
@@ -224,11 +224,11 @@ for key in (
     "normalize_advantage",
     "use_sde",
     "wean_imitation",
-    "solo_greedy",
-    "normalize_obs",
 ):
     for value in ("maybe", "1", "yes_please"):
         CLI_CASES.append(([*T, "--set", f"{key}={value}"], f"{key} must be true or false"))
+for value in ("maybe", "1", "yes_please"):  # a switch with an "auto" mode
+    CLI_CASES.append(([*T, "--set", f"normalize_obs={value}"], "normalize_obs must be"))
 for key, value in (
     ("variant", "exact"),
     ("optimizer", "sgd"),

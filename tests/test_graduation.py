@@ -130,7 +130,8 @@ def test_python_api_uses_the_domain_preset():
 def test_a_users_environment_gets_the_default_preset():
     default = load_preset("default", "tlac")
     # docs/graduation.md, "Users' own environments": SB3 PPO's rollouts, the student's own
-    # policy gradient everywhere, the imitation weaned by competence, a fifth of episodes solo
+    # policy gradient everywhere, the imitation weaned by competence, a fifth of episodes solo,
+    # raw observations normalised, 30% of the assisted episodes led by one teacher
     expected = dict(
         n_steps=2048,
         batch_size=64,
@@ -144,11 +145,13 @@ def test_a_users_environment_gets_the_default_preset():
         low_level_data="agent",
         wean_imitation=True,
         solo_budget=0.2,
+        normalize_obs="auto",
+        teacher_episodes=0.3,
     )
     assert default == expected
     model = TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: 0], seed=0)
     assert model.config == TLACConfig(**expected)
-    assert model.config.variant == "graduate" and not model.config.solo_greedy
+    assert model.config.variant == "graduate"
     # the retired opt-in preset names what replaced it
     with pytest.raises(ConfigError, match=r"'past-teachers' was retired: .* leave preset out"):
         TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: 0], preset="past-teachers")
@@ -362,19 +365,46 @@ def test_silent_states_are_where_no_teacher_speaks():
         assert losses.silent_states(advice).unique().tolist() == expected
 
 
-def test_solo_greedy_episodes_act_as_the_deployed_student():
-    """``solo_greedy``: in solo episodes the student takes its greedy action (what
-    ``predict(deterministic=True)`` deploys); without it, samples that differ from it."""
-    for greedy in (True, False):
-        model = TLAC(
-            "doorkey", teachers=["random"], seed=0, solo_budget=1.0, solo_greedy=greedy
-        )  # budget 1: every episode is solo
-        ro = model.collect()
-        obs = ro.obs.reshape(-1, ro.obs.shape[-1])
-        assert ro.solo.all()
-        deployed = model.predict(obs.astype(np.uint8), deterministic=True)[0]
-        same = np.mean(ro.actions.reshape(-1) == deployed)
-        assert same == 1.0 if greedy else same < 0.9
+def test_teacher_led_episodes_are_played_by_one_teacher_chosen_by_ucb1():
+    """``teacher_episodes``: a share of the non-solo episodes is played from start to end by
+    one teacher, chosen by UCB1 over the returns of its earlier led episodes; they count as
+    assisted episodes for competence."""
+    solo = SoloEpisodes(4, budget=0.0, seed=0, n_teachers=2, teacher_share=1.0)
+    solo.start(np.ones(4, dtype=bool))
+    assert not solo.active.any() and sorted(set(solo.leader.tolist())) <= [0, 1]
+    for i in range(4):  # teacher 1's episodes return 10, teacher 0's 0
+        solo.end(i, 10.0 * solo.leader[i])
+    assert solo.led_counts.sum() == 4 and list(solo.assisted_returns) == [
+        10.0 * k for k in solo.leader
+    ]
+    assert solo.led_counts.min() > 0  # (seed 0: both tried) UCB1 now prefers teacher 1
+    solo.start(np.ones(4, dtype=bool))
+    assert (solo.leader == 1).all()
+    # without a share, no led episode and no extra draw from the generator
+    plain, led = SoloEpisodes(2, 0.5, seed=3), SoloEpisodes(2, 0.5, seed=3, n_teachers=2)
+    assert (plain.start(np.ones(2, bool)) == led.start(np.ones(2, bool))).all()
+    assert (led.leader == -1).all()
+
+
+def test_teacher_led_rows_carry_the_leader_as_the_high_level_choice():
+    model = TLAC(
+        gym.make("CartPole-v1"),
+        teachers=[lambda obs: 0, lambda obs: 1],
+        seed=0,
+        n_steps=256,
+        batch_size=64,
+        teacher_episodes=1.0,
+        solo_budget=1e-9,  # (solo episodes on, almost never drawn)
+    )
+    ro = model.collect()
+    choices, actions = ro.choices.reshape(-1), ro.actions.reshape(-1)
+    assert set(np.unique(choices).tolist()) <= {0, 1}  # never the agent, never mixed per step
+    assert (actions == choices).all()  # teacher k pushes k
+    starts = np.flatnonzero(np.r_[True, ro.dones.reshape(-1)[:-1]])
+    for a, b in zip(starts, [*starts[1:], len(choices)], strict=True):
+        assert len(set(choices[a:b].tolist())) == 1  # one teacher per episode
+    with pytest.raises(ConfigError, match="teacher_episodes needs solo episodes"):
+        TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: 0], teacher_episodes=0.5, solo_budget=0)
 
 
 def test_wean_imitation_scales_the_imitation_weight_by_one_minus_competence():

@@ -90,6 +90,17 @@ def test_normalize_obs_refuses_one_hot_categories() -> None:
     TLAC("doorkey", normalize_obs=True, obs_encoding="raw")  # raw indices may be normalised
 
 
+def test_normalize_obs_auto_normalises_raw_observations_only() -> None:
+    """``auto`` (presets/default.yaml): on for a Box read raw, off (not refused) where the
+    observations are one-hot encoded, so the same preset serves every space."""
+    box = TLAC(gym.make("MountainCar-v0"), teachers=[lambda obs: 0], normalize_obs="auto")
+    assert box.normalizer is not None and box.normalizer.normalize_obs
+    grid = TLAC(gym.make("FrozenLake-v1"), teachers=[lambda obs: 0], normalize_obs="auto")
+    assert grid.normalizer is None
+    with pytest.raises(ConfigError, match="normalize_obs needs raw observations"):
+        TLAC(gym.make("FrozenLake-v1"), teachers=[lambda obs: 0], normalize_obs=True)
+
+
 def test_a2c_normalize_wraps_vecnormalize_and_predicts_from_saved_statistics(tmp_path) -> None:
     from stable_baselines3.common.env_util import make_vec_env
 

@@ -180,7 +180,10 @@ def _check_type(algo: str, name: str, value: Any, hint: Any) -> None:
         if "None" not in text:
             raise _type_error(algo, name, "set (not null)", value)
         return
-    if hint is bool or text.startswith("bool"):
+    if text == "bool | str":  # a switch with named modes besides true / false (normalize_obs)
+        if not isinstance(value, bool | np.bool_ | str):
+            raise _type_error(algo, name, "true, false or 'auto'", value)
+    elif hint is bool or text.startswith("bool"):
         if not isinstance(value, bool | np.bool_):
             raise _type_error(algo, name, "true or false", value)
     elif hint is int or text in ("int", "int | None", "typing.Optional[int]"):

@@ -33,6 +33,7 @@ import torch
 
 from tlac.algorithms.nets import tanh_mlp_numpy
 from tlac.algorithms.normalization import Normalizer
+from tlac.selectors import ucb1_scores
 
 
 def solo_probability(competence: float, budget: float) -> float:
@@ -149,17 +150,33 @@ class StudentSnapshot:
 
 
 class SoloEpisodes:
-    """Decides, at every episode start, whether the student plays that episode alone.
+    """Decides, at every episode start, whether the student plays that episode alone, and
+    (``teacher_share`` > 0) whether one teacher plays it alone instead of the high level's mix.
 
-    ``window`` recent returns of solo and of assisted episodes are compared; the floor is the
-    lowest mean of ``window`` solo returns seen so far (the untrained student's level). Until
-    ``min_episodes`` solo episodes have ended, competence counts as 0.
+    ``window`` recent returns of solo and of assisted episodes (teacher-led ones included) are
+    compared; the floor is the lowest mean of ``window`` solo returns seen so far (the
+    untrained student's level). Until ``min_episodes`` solo episodes have ended, competence
+    counts as 0. A teacher-led episode's teacher is the one with the best UCB1 index over the
+    returns of the earlier led episodes (the per-episode bandit of the paper's Figure 11
+    ablation, selectors.ucb1_scores), so the best teacher leads most of them.
     """
 
     def __init__(
-        self, n_envs: int, budget: float, seed: int, window: int = 20, min_episodes: int = 5
+        self,
+        n_envs: int,
+        budget: float,
+        seed: int,
+        window: int = 20,
+        min_episodes: int = 5,
+        n_teachers: int = 0,
+        teacher_share: float = 0.0,
     ):
         self.budget = float(budget)
+        self.teacher_share = float(teacher_share)
+        self.leader = np.full(n_envs, -1, dtype=np.int64)  # the leading teacher; -1: none
+        self.led_sums = np.zeros(n_teachers)  # per teacher: its led episodes' returns, summed
+        self.led_counts = np.zeros(n_teachers, dtype=np.int64)
+        self.led_low, self.led_high = np.inf, -np.inf  # the range of led returns (UCB1's scale)
         self.active = np.zeros(n_envs, dtype=bool)
         self.rng = np.random.default_rng([seed, 0x501])  # its own stream: acting is untouched
         self.solo_returns: deque[float] = deque(maxlen=window)
@@ -186,7 +203,17 @@ class SoloEpisodes:
         starting = np.flatnonzero(episode_starts)
         if len(starting):
             self.active[starting] = self.rng.random(len(starting)) < self.probability
+            if self.teacher_share > 0:  # (no draw otherwise: the same stream as before)
+                for i in starting:
+                    led = not self.active[i] and self.rng.random() < self.teacher_share
+                    self.leader[i] = self._ucb1_teacher() if led else -1
         return self.active
+
+    def _ucb1_teacher(self) -> int:
+        """The teacher to lead an episode: the best UCB1 index, ties (untried ones) at random."""
+        spread = self.led_high - self.led_low if self.led_high > self.led_low else 1.0
+        scores = ucb1_scores(self.led_sums, self.led_counts, 1.0, spread)
+        return int(self.rng.choice(np.flatnonzero(scores == scores.max())))
 
     def end(self, env_index: int, episode_return: float) -> bool:
         """Record a finished episode's return. True when it was a solo episode after which the
@@ -198,6 +225,12 @@ class SoloEpisodes:
                 self.floor = min(self.floor, float(np.mean(self.solo_returns)))
             return self.latest_is_worth_deploying()
         else:
+            teacher = self.leader[env_index]
+            if teacher >= 0:
+                self.led_sums[teacher] += episode_return
+                self.led_counts[teacher] += 1
+                self.led_low = min(self.led_low, float(episode_return))
+                self.led_high = max(self.led_high, float(episode_return))
             self.assisted_returns.append(float(episode_return))
             if len(self.assisted_returns) >= self.min_episodes:
                 self.best_assisted = max(self.best_assisted, float(np.mean(self.assisted_returns)))

@@ -80,6 +80,8 @@ REMOVED_SETTINGS: dict[str, str] = {
     "imitation_std": "Box imitation uses a Gaussian of 0.1 action-box half-widths",
     "ucb_c": "selector ucb1 uses c = 1 (scaled by the observed return range)",
     "keep_best_student": "with solo episodes, predict always deploys the kept student",
+    "solo_greedy": "solo episodes are sampled (the student's policy gradient needs pi_low's "
+    "samples); the kept student is chosen from them",
 }
 """Settings removed on 2026-11-26 (issue 41: none was used by a preset, and each was measured
 worse or no better; results/graduation-notes.md), each with what replaced it."""
@@ -187,10 +189,11 @@ class TLACConfig:
     the best such window so far (tlac.algorithms.graduation.worth_deploying), rather than
     whatever the last update left. None: the variant's (graduate 0.05, paper 0: no solo
     episodes, and ``predict`` uses the live weights)."""
-    normalize_obs: bool = False
+    normalize_obs: bool | str = False
     """Normalise the networks' observations by their running mean and std (SB3's VecNormalize,
-    clipped to +-10), inside TL-AC: teachers still see raw observations. Not with a
-    one-hot obs_encoding (categories have no scale)."""
+    clipped to +-10), inside TL-AC: teachers still see raw observations. true: refused where
+    observations are one-hot encoded or images (categories and pixels have no scale); auto:
+    on where the networks read the observations raw, off elsewhere (presets/default.yaml)."""
     normalize_reward: bool = False
     """Divide training rewards by the running std of the discounted return (SB3's
     VecNormalize); logged returns stay raw."""
@@ -203,12 +206,14 @@ class TLACConfig:
     policy gradient takes over as the imitation fades, so it can learn past a weak teacher
     (docs/graduation.md). Off in both variants: with the imitation term alone RMSprop
     normalises a slowly varying scale away."""
-    solo_greedy: bool = False
-    """With solo episodes: the student acts greedily in them (its most likely action; the Box
-    mean), as it is deployed, so that competence and the kept student measure the deployed
-    student. Off in both variants and presets: on DoorKey it cost the training return, and
-    with low_level_data agent (a user's environment) it starves the policy gradient of samples
-    (docs/graduation.md)."""
+    teacher_episodes: float = 0.0
+    """With solo episodes: the share of the other episodes that one teacher plays alone from
+    start to end ("teacher-led"), the teacher picked by UCB1 over the returns of its earlier
+    led episodes (tlac.algorithms.graduation.SoloEpisodes). They show what each teacher reaches
+    on its own (so competence is measured against the best teacher, not a mixture that never
+    reaches a sparse goal), and their rows train the high level like its own choices, so it
+    learns whom to follow where per-step mixing never completes a task (MountainCar). 0: none
+    (both variants); presets/default.yaml sets it (docs/graduation.md)."""
     kl_rows: str | None = None
     """Which rows give the low level's approximate KL for the target-KL stop: agent (where the
     agent acted: pi_low's own samples), all (every row, as a PPO built on SB3 computes it) or
@@ -293,6 +298,16 @@ class TLACConfig:
             "solo_budget",
         ):
             check.number(name, getattr(self, name), 0.0)
+        check.number("teacher_episodes", self.teacher_episodes, 0.0, 1.0)
+        if self.normalize_obs not in (True, False, "auto"):
+            raise ConfigError(
+                f"TL-AC setting normalize_obs must be true, false or 'auto', got {self.normalize_obs!r}"
+            )
+        if self.teacher_episodes > 0 and not self.solo_budget:
+            raise ConfigError(
+                "TL-AC setting teacher_episodes needs solo episodes (solo_budget > 0), "
+                f"got teacher_episodes {self.teacher_episodes} with solo_budget {self.solo_budget}"
+            )
         for name, accepted in (
             ("optimizer", ["rmsprop_tf", "adam"]),
             ("update_rule", ["joint", "per_level"]),

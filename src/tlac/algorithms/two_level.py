@@ -174,7 +174,13 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self._replay_generator = torch.Generator().manual_seed(self.seed + 1)
         self.solo: SoloEpisodes | None = None
         if cfg.solo_budget and self.n_teachers:
-            self.solo = SoloEpisodes(self.n_envs, cfg.solo_budget, self.seed)
+            self.solo = SoloEpisodes(
+                self.n_envs,
+                cfg.solo_budget,
+                self.seed,
+                n_teachers=self.n_teachers,
+                teacher_share=cfg.teacher_episodes,
+            )
         self.deployed: StudentSnapshot | None = None  # None: predict uses the live weights
         self._sde_noise: np.ndarray | None = None
         # (origin, horizon) of the schedules: of the learn call in progress or last made
@@ -219,11 +225,11 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             if self.solo is not None:  # graduate variant: some episodes are the student's alone
                 solo = self.solo.start(self._episode_starts)
                 choices = np.where(solo, self.n_teachers, choices)
+                # ... or one teacher's alone (teacher_episodes): their rows train the high level
+                # as its own choices, with their log-probabilities under it
+                choices = np.where(self.solo.leader >= 0, self.solo.leader, choices)
                 ro.solo[t] = solo
             actions = self._sample_low(low_out, latent)  # line 16 (kept where the agent acts)
-            if cfg.solo_greedy and self.solo is not None:  # solo: the student as deployed
-                in_solo = solo.reshape(-1, *[1] * (actions.ndim - 1))
-                actions = np.where(in_solo, self._greedy_low(low_out), actions)
             teacher_obs = self._last_obs if vec_normalize is None else original_obs(vec_normalize)
             actions = self._apply_teachers(choices, teacher_obs, actions)  # line 18
 
