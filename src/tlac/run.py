@@ -346,7 +346,10 @@ def train_run(
     except OSError as exc:
         raise ConfigError(f"cannot write the run folder {str(out)!r}: {exc.strerror}") from None
     try:
-        with folder_lock(out / LOCK_FILE, f"--out {str(out)!r} is in use by another tlac process"):
+        with (
+            storage_errors(out, spec.algo),
+            folder_lock(out / LOCK_FILE, f"--out {str(out)!r} is in use by another tlac process"),
+        ):
             meta = None if fresh else _resumable(out, spec, domain)
             return _train_locked(
                 spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, meta=meta
@@ -355,12 +358,6 @@ def train_run(
         if created and not (out / CHECKPOINT).exists():
             shutil.rmtree(out, ignore_errors=True)
         raise
-    except StorageError as exc:  # a model or checkpoint that could not be saved
-        raise StorageError(f"{exc}; {_how_to_continue(out, spec.algo)}") from None
-    except OSError as exc:
-        if exc.errno not in STORAGE_ERRNOS:
-            raise
-        raise storage_error(out, exc, spec.algo) from None
 
 
 def resume_run(
@@ -394,17 +391,27 @@ def resume_run(
         check_in_process(hp)
     except ConfigError as exc:  # config.yaml edited by hand: say which file
         raise ConfigError(f"{str(out / 'config.yaml')!r}: {exc}") from None
+    with (
+        storage_errors(out, spec.algo),
+        folder_lock(out / LOCK_FILE, f"{str(out)!r} is in use by another tlac process"),
+    ):
+        return _train_locked(
+            spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, meta=meta
+        )
+
+
+@contextlib.contextmanager
+def storage_errors(out: Path, algo: str) -> Iterator[None]:
+    """A run's failures to write (a full disk, a file size limit, a folder turned read-only)
+    as one StorageError naming the file and how the run continues."""
     try:
-        with folder_lock(out / LOCK_FILE, f"{str(out)!r} is in use by another tlac process"):
-            return _train_locked(
-                spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, meta=meta
-            )
+        yield
     except StorageError as exc:  # a model or checkpoint that could not be saved
-        raise StorageError(f"{exc}; {_how_to_continue(out, spec.algo)}") from None
+        raise StorageError(f"{exc}; {_how_to_continue(out, algo)}") from None
     except OSError as exc:
         if exc.errno not in STORAGE_ERRNOS:
             raise
-        raise storage_error(out, exc, spec.algo) from None
+        raise storage_error(out, exc, algo) from None
 
 
 STORAGE_ERRNOS = frozenset(
