@@ -336,13 +336,8 @@ CLI_CASES += [
 ]
 
 
-@pytest.mark.parametrize(
-    ("args", "fragment"), CLI_CASES, ids=[" ".join(a)[:80] for a, _ in CLI_CASES]
-)
-def test_cli_bad_input_is_one_line_and_exit_2(args, fragment, made, scratch, capsys):
-    before_run, before_grid = _tree(made["run"]), _tree(made["grid"])
-    args = _placeholders(args, made)
-    fragment = _placeholders([fragment], made)[0]
+def one_line_error(args: list[str], capsys: pytest.CaptureFixture[str]) -> str:
+    """Run the CLI; assert exit status 2 and one line on stderr, no traceback; return it."""
     try:
         code = main(args)
     except SystemExit as exc:  # argparse's usage errors
@@ -352,7 +347,18 @@ def test_cli_bad_input_is_one_line_and_exit_2(args, fragment, made, scratch, cap
     assert code == 2, err
     assert len(lines) == 1, err
     assert "Traceback" not in err
-    assert fragment in lines[0], lines[0]
+    return lines[0]
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"), CLI_CASES, ids=[" ".join(a)[:80] for a, _ in CLI_CASES]
+)
+def test_cli_bad_input_is_one_line_and_exit_2(args, fragment, made, scratch, capsys):
+    before_run, before_grid = _tree(made["run"]), _tree(made["grid"])
+    args = _placeholders(args, made)
+    fragment = _placeholders([fragment], made)[0]
+    line = one_line_error(args, capsys)
+    assert fragment in line, line
     assert _tree(made["run"]) == before_run
     assert _tree(made["grid"]) == before_grid
     assert not (scratch / "runs").exists() or not any((scratch / "runs").rglob("result.json"))

@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 import torch
 import yaml
+from test_bad_input import one_line_error
 
 from tlac.cli import main
 from tlac.errors import ConfigError, StorageError, TeacherError, TlacError
@@ -52,20 +53,6 @@ def made(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     grid = root / "grid"
     assert main(["experiment", "run", str(config), "--out", str(grid)]) == 0
     return {"run": run, "grid": grid, "config": config}
-
-
-def one_line_error(args: list[str], capsys: pytest.CaptureFixture[str]) -> str:
-    """Run the CLI; assert exit status 2 and one line on stderr, no traceback; return it."""
-    try:
-        code = main(args)
-    except SystemExit as exc:  # argparse's usage errors
-        code = exc.code
-    err = capsys.readouterr().err
-    lines = [line for line in err.splitlines() if line.strip()]
-    assert code == 2, err
-    assert len(lines) == 1, err
-    assert "Traceback" not in err
-    return lines[0]
 
 
 # --------------------------------------------------------------------------- tlac train
