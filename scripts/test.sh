@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Set up, then run the test suite (about 10 minutes on 2 CPU cores; learning tests included).
+# Set up, then run the default test suite (about 6 minutes on one CPU core; the slow tests,
+# learning, fault injection and the Ray runner, are `.venv/bin/pytest -m slow`).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh

@@ -407,6 +407,7 @@ def test_reusing_dir_checks_finished_runs_settings(tmp_path: Path) -> None:
         run_local(changed, out, workers=1, live=False)
 
 
+@pytest.mark.slow  # starts a Ray cluster: about a minute on an idle machine, several under load
 def test_tiny_grid_ray_runner_and_report(tmp_path: Path) -> None:
     pytest.importorskip("ray")
     out = tmp_path / "ray"
