@@ -246,10 +246,19 @@ def rgb_teacher(image):
 
 def test_rgb_view_with_cnn_policy_learns_predicts_and_saves(tmp_path) -> None:
     assert episode_return(rgb_view_env(), rgb_teacher) > 0.9  # the scripted teacher works
-    model = TLAC(rgb_view_env(), teachers=[rgb_teacher], seed=0, policy="CnnPolicy")
+    # one 64-step rollout, 2 epochs: the default preset's 2048 steps x 10 epochs took a minute
+    model = TLAC(
+        rgb_view_env(),
+        teachers=[rgb_teacher],
+        seed=0,
+        policy="CnnPolicy",
+        n_steps=64,
+        batch_size=32,
+        n_epochs=2,
+    )
     assert model.advice_buffer.obs.dtype == torch.uint8  # images kept as bytes
     before = [p.detach().clone() for p in model._extractor_params]
-    model.learn(192)
+    model.learn(64)
     assert any(not torch.equal(a, b) for a, b in zip(before, model._extractor_params, strict=True))
     image, _ = rgb_view_env().reset(seed=0)
     action = model.predict(image, deterministic=True)[0]
@@ -274,7 +283,15 @@ def test_rgb_view_with_cnn_policy_learns_predicts_and_saves(tmp_path) -> None:
     resumed.learn(16, reset_num_timesteps=False)
 
     # the paper variant's per-level update: the shared CNN clipped on its own
-    TLAC(rgb_view_env(), teachers=[rgb_teacher], policy="CnnPolicy", variant="paper").learn(32)
+    paper = TLAC(
+        rgb_view_env(),
+        teachers=[rgb_teacher],
+        policy="CnnPolicy",
+        variant="paper",
+        n_steps=16,
+        batch_size=16,
+    )
+    paper.learn(32)
 
 
 def test_a_dict_with_an_image_key_takes_multi_input_policy() -> None:
@@ -288,7 +305,9 @@ def test_a_dict_with_an_image_key_takes_multi_input_policy() -> None:
 
     with pytest.raises(ConfigError, match=r"key 'image' is an image .*policy='MultiInputPolicy'"):
         TLAC(make(), teachers=[teacher])
-    model = TLAC(make(), teachers=[teacher], seed=0, policy="MultiInputPolicy")
+    model = TLAC(
+        make(), teachers=[teacher], seed=0, policy="MultiInputPolicy", n_steps=64, batch_size=32
+    )
     assert model.encoder.out_dim == 4 + 256  # direction one-hot, SB3's cnn_output_dim
     model.learn(64)
     obs, _ = make().reset(seed=0)
