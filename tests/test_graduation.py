@@ -152,6 +152,10 @@ def test_a_users_environment_gets_the_default_preset():
     model = TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: 0], seed=0)
     assert model.config == TLACConfig(**expected)
     assert model.config.variant == "graduate"
+    # the default preset is the graduate variant's: the paper variant on a user's environment
+    # is Algorithm 1 as written (no solo or teacher-led episodes, no weaning, Table 5's rollouts)
+    paper_on_users = TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: 0], variant="paper")
+    assert paper_on_users.config == TLACConfig(variant="paper")
     # the retired opt-in preset names what replaced it
     with pytest.raises(ConfigError, match=r"'past-teachers' was retired: .* leave preset out"):
         TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: 0], preset="past-teachers")

@@ -334,11 +334,17 @@ def domain_preset(name: str) -> dict[str, Any]:
 
 def resolve_settings(env: Any, preset: str | None, settings: dict[str, Any]) -> dict[str, Any]:
     """``TLAC(env, preset=..., **settings)``'s settings before validation: the preset (``"auto"``:
-    a domain name's own, as ``tlac train`` uses it, else ``presets/default.yaml``; a preset name;
-    None: none), then SB3's ``policy_kwargs``, then the settings given by name."""
+    a domain name's own, as ``tlac train`` uses it, else ``presets/default.yaml``, which is the
+    graduate variant's: ``variant="paper"`` on a user's environment takes none, i.e. Algorithm 1
+    with Table 5's settings; a preset name; None: none), then SB3's ``policy_kwargs``, then the
+    settings given by name."""
     if preset == "auto":
-        is_domain = isinstance(env, str) and env in domain_names()
-        base = domain_preset(env) if is_domain else load_preset("default", "tlac")
+        if isinstance(env, str) and env in domain_names():
+            base = domain_preset(env)
+        elif settings.get("variant") == "paper":
+            base = {}  # the default preset's solo episodes, weaning... are not Algorithm 1
+        else:
+            base = load_preset("default", "tlac")
     else:
         base = {} if preset is None else load_preset(preset, "tlac")
     settings = dict(settings)
