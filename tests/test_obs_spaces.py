@@ -283,15 +283,7 @@ def test_rgb_view_with_cnn_policy_learns_predicts_and_saves(tmp_path) -> None:
     resumed.learn(16, reset_num_timesteps=False)
 
     # the paper variant's per-level update: the shared CNN clipped on its own
-    paper = TLAC(
-        rgb_view_env(),
-        teachers=[rgb_teacher],
-        policy="CnnPolicy",
-        variant="paper",
-        n_steps=16,
-        batch_size=16,
-    )
-    paper.learn(32)
+    TLAC(rgb_view_env(), teachers=[rgb_teacher], policy="CnnPolicy", variant="paper").learn(32)
 
 
 def test_a_dict_with_an_image_key_takes_multi_input_policy() -> None:

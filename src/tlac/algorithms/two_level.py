@@ -85,8 +85,9 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
     ``preset``: the settings that ``settings`` override. ``"auto"``: a domain name's own preset
     (as ``tlac train`` uses it), else ``presets/default.yaml`` (measured on users'
     environments, docs/graduation.md; the graduate variant's: ``variant="paper"`` takes
-    TLACConfig's defaults there, Algorithm 1 with Table 5's settings); a preset name; or ``None``: TLACConfig's defaults only
-    (what ``tlac train`` passes, having resolved the preset already).
+    TLACConfig's defaults there, Algorithm 1 with Table 5's settings); a preset name; or
+    ``None``: TLACConfig's defaults only (what ``tlac train`` passes, having resolved the
+    preset already).
     SB3-style arguments: ``verbose`` (1: print the logged scalars every ``log_interval``
     steps, as SB3 does), ``tensorboard_log`` (a folder: the same scalars for TensorBoard, in
     ``TLAC_<n>`` under it), ``device`` (``"auto"`` or ``"cpu"``: tlac's networks are small and
