@@ -99,6 +99,11 @@ def test_normalize_obs_auto_normalises_raw_observations_only() -> None:
     assert grid.normalizer is None
     with pytest.raises(ConfigError, match="normalize_obs needs raw observations"):
         TLAC(gym.make("FrozenLake-v1"), teachers=[lambda obs: 0], normalize_obs=True)
+    # NumPy's true is true, not silently off
+    on = TLAC(gym.make("MountainCar-v0"), teachers=[lambda obs: 0], normalize_obs=np.True_)
+    assert on.normalizer is not None and on.normalizer.normalize_obs
+    with pytest.raises(ConfigError, match="normalize_obs needs raw observations"):
+        TLAC(gym.make("FrozenLake-v1"), teachers=[lambda obs: 0], normalize_obs=np.True_)
 
 
 def test_a2c_normalize_wraps_vecnormalize_and_predicts_from_saved_statistics(tmp_path) -> None:

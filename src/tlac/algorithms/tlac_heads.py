@@ -114,10 +114,12 @@ class TLACHeads:
             obs_space, self.obs_policy, cfg.obs_encoding
         )
         self.encoder: Any = None
+        # true (NumPy's bool too) asks for normalisation wherever; "auto" only where read raw
+        always_normalize = cfg.normalize_obs != "auto" and bool(cfg.normalize_obs)
         if self.obs_layout is None:
             self.obs_dim = int(np.prod(obs_space.shape))
             self.encoder = make_encoder(cfg.obs_encoding, obs_space)
-            if cfg.normalize_obs is True and self.encoder is not None:
+            if always_normalize and self.encoder is not None:
                 raise ConfigError(
                     "normalize_obs needs raw observations, but obs_encoding "
                     f"{cfg.obs_encoding!r} one-hot encodes this space; set obs_encoding: raw"
@@ -126,7 +128,7 @@ class TLACHeads:
             self.obs_dim = self.obs_layout.dim
             if any(p.kind != "raw" for p in self.obs_layout.parts):  # else the identity
                 self.encoder = ObsEncoder(self.obs_layout, self.obs_policy, cfg.ortho_init_low)
-            if cfg.normalize_obs is True and self.encoder is not None:
+            if always_normalize and self.encoder is not None:
                 raise ConfigError(
                     "normalize_obs needs raw observations, but this observation space is read "
                     f"one-hot (Discrete) or as an image: {obs_space}"
@@ -139,9 +141,7 @@ class TLACHeads:
         )
         net_in = self.obs_dim if self.encoder is None else self.encoder.out_dim
         # "auto": normalise what the networks read raw, nothing that is encoded
-        normalize_obs = cfg.normalize_obs is True or (
-            cfg.normalize_obs == "auto" and self.encoder is None
-        )
+        normalize_obs = always_normalize or (cfg.normalize_obs == "auto" and self.encoder is None)
         self.normalizer: Normalizer | None = None
         if normalize_obs or cfg.normalize_reward:
             self.normalizer = Normalizer(
