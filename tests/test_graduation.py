@@ -569,6 +569,45 @@ def test_informative_trust_hand_checked():
     assert share.sum().item() == pytest.approx(0.5)
 
 
+def test_advice_labels_remove_the_uniform_floor_hand_checked():
+    """The label copied from a teacher is its advice minus its uniform floor, renormalised.
+    DoorKey's noisy teacher (6 actions, its base with probability 0.2): 0.2 + 0.8 / 6 = 1/3 on
+    the base's action and 0.8 / 6 = 2/15 on each other; the floor 2/15 leaves 0.2 on the base,
+    renormalised to a point mass. A good teacher (0.8) gives the same label. (0.5, 0.3, 0.1,
+    0.1) has floor 0.1 and share 1 - 4 * 0.1 = 0.6: (0.4, 0.2, 0, 0) / 0.6. A point mass is
+    returned bit for bit, and the uniform distribution is left as it is."""
+    base = torch.zeros(6)
+    base[3] = 1.0
+    noisy = 0.2 * base + 0.8 / 6
+    good = 0.8 * base + 0.2 / 6
+    mixed = torch.tensor([0.5, 0.3, 0.1, 0.1])
+    for advice, label in ((noisy, base), (good, base)):
+        got = losses.advice_labels(advice[None, None])[0, 0]
+        assert got.tolist() == pytest.approx(label.tolist(), abs=1e-6)
+    got = losses.advice_labels(mixed[None, None])[0, 0]
+    assert got.tolist() == pytest.approx([2 / 3, 1 / 3, 0.0, 0.0], abs=1e-6)
+    point, uniform = torch.tensor([0.0, 1.0, 0.0]), torch.full((3,), 1 / 3)
+    both = losses.advice_labels(torch.stack([point[None], uniform[None]]))
+    assert torch.equal(both[0, 0], point) and torch.equal(both[1, 0], uniform)
+
+
+def test_the_student_copies_a_noisy_teachers_base_action():
+    """On one DoorKey state trusted to a noisy teacher alone, the imitation term is the whole
+    -log pi_low of its base's action (the label's uniform floor is removed), not the
+    cross-entropy from its flat distribution."""
+    model = TLAC("doorkey", teachers=["noisy"], seed=0)
+    n_actions = model.net.out_dims[1]
+    noisy = torch.full((n_actions,), 0.8 / n_actions)
+    noisy[2] += 0.2
+    assert n_actions == 6
+    buffer = model.advice_buffer
+    buffer.add(torch.zeros(1, buffer.obs.shape[1]), noisy[None, None])
+    labels = model._replay_plan(1).advice[:, :1]  # what the update copies from that state
+    low = torch.log(torch.tensor([[0.1, 0.1, 0.3, 0.2, 0.2, 0.1]]))
+    term = float(model._imitation_term(torch.zeros(1, 2), low, torch.zeros(1, 64), labels))
+    assert term == pytest.approx(-math.log(0.3), abs=1e-5)
+
+
 def test_box_imitation_weighs_the_teachers_actions_by_the_high_levels_trust():
     """On a Box space the advice is the teachers' actions, not distributions: the imitation
     term is their scaled squared errors weighted by the softmax of the teachers' logits (the

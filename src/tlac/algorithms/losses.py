@@ -153,6 +153,28 @@ every teacher is uniform there, as a random teacher everywhere or a partial one 
 region, up to rounding."""
 
 
+def advice_labels(distributions: torch.Tensor) -> torch.Tensor:
+    """``(K, B, A)``: each teacher's advice with its uniform floor removed, the label the
+    student copies. A distribution is read as ``w * q + (1 - w) / A``, an informative part ``q``
+    mixed with uniform noise: the paper's good and noisy teachers are exactly that (their base
+    with probability 0.8 / 0.2, else a uniformly random action; appendix A.1.1), and the student
+    copies ``q = (pi - min_a pi) / (1 - A min_a pi)``, their base. A point mass is its own
+    label; a uniform distribution (``w`` below :data:`SILENT_INFORMATION`) is left as it is (it
+    gets no trust: :func:`informative_trust`). Why: a noisy teacher's distribution, 0.33 on its
+    base's action and 0.13 on each other, leaves a student fitted to it with margins of a few
+    hundredths, and its greedy action loops wherever one of them flips.
+
+    >>> noisy = torch.tensor([[[0.6, 0.2, 0.2]]])  # base action 0 with probability 0.4
+    >>> [round(x, 6) for x in advice_labels(noisy)[0, 0].tolist()]
+    [1.0, 0.0, 0.0]
+    """
+    n_actions = distributions.shape[-1]
+    floor = distributions.min(-1, keepdim=True).values
+    share = 1.0 - n_actions * floor
+    labels = (distributions - floor) / share.clamp_min(SILENT_INFORMATION)
+    return torch.where(share > SILENT_INFORMATION, labels, distributions)
+
+
 def silent_states(distributions: torch.Tensor) -> torch.Tensor:
     """``(B,)``: 1.0 where every teacher's advice is uniform (information at most
     :data:`SILENT_INFORMATION`), 0.0 where at least one says something.

@@ -162,6 +162,7 @@ class ReplayPlan:
 
     draws: ReplayDraws
     advice: torch.Tensor
-    """``(n_teachers, rows, ...)``: the advice in every drawn row, in draw order."""
+    """``(n_teachers, rows, ...)``: the advice in every drawn row, in draw order (discrete
+    actions: losses.advice_labels of it, the labels the student copies)."""
     information: torch.Tensor | None
     """``(n_teachers, rows)``: losses.advice_information of ``advice`` (discrete actions)."""

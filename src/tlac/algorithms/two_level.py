@@ -486,8 +486,9 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             len(buffer), self.config.imitation_batch_size, max_batches, self._replay_generator
         )
         advice = buffer.advice[draws.idx].transpose(0, 1)  # (n_teachers, rows, ...)
-        information = losses.advice_information(advice) if self.discrete else None
-        return ReplayPlan(draws, advice, information)
+        if not self.discrete:
+            return ReplayPlan(draws, advice, None)
+        return ReplayPlan(draws, losses.advice_labels(advice), losses.advice_information(advice))
 
     def _replayed_imitation(self, replay: ReplayPlan) -> torch.Tensor:
         """The imitation term on the next minibatch of states replayed from the advice buffer."""
