@@ -338,8 +338,10 @@ class TLACHeads:
     ) -> torch.Tensor:
         """DAgger on replayed states: each teacher's advice weighted by the high level's trust
         in that teacher (the softmax over the teachers' logits only; no gradient), re-weighted
-        (discrete actions) by how much its advice says there (losses.informative_trust;
-        ``information``: losses.advice_information of ``advice``, if computed already)."""
+        (discrete actions) by how much its advice says there (losses.informative_trust).
+        ``advice``: discrete actions, the labels copied (losses.advice_labels of the teachers'
+        distributions); ``information``: losses.advice_information of those distributions, if
+        computed already (else computed from ``advice``)."""
         trust = torch.softmax(high_logits.detach()[:, : self.n_teachers], -1)
         if self.discrete:  # advice: (K, B, A) distributions
             trust = losses.informative_trust(trust, advice, information)

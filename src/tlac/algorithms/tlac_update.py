@@ -165,4 +165,5 @@ class ReplayPlan:
     """``(n_teachers, rows, ...)``: the advice in every drawn row, in draw order (discrete
     actions: losses.advice_labels of it, the labels the student copies)."""
     information: torch.Tensor | None
-    """``(n_teachers, rows)``: losses.advice_information of ``advice`` (discrete actions)."""
+    """``(n_teachers, rows)``: losses.advice_information of the drawn advice before its labels
+    were taken (discrete actions)."""
