@@ -125,6 +125,19 @@ def informative_trust(
         return trust
     if information is None:
         information = advice_information(distributions)
+    return reweighted_trust(trust, information)
+
+
+def reweighted_trust(trust: torch.Tensor, information: torch.Tensor) -> torch.Tensor:
+    """``(B, K)``: ``trust[s, k] * information[k, s]``, rescaled so that each state keeps its
+    total trust (0 where every trusted teacher's information is 0). Discrete actions: the
+    information of :func:`advice_information`; Box actions: the weight of each teacher's
+    informative part (tlac.teachers.base.advice_actions: 0 for a random teacher, 0.8 for a
+    good one, 1 for a deterministic one).
+
+    >>> reweighted_trust(torch.tensor([[0.5, 0.25]]), torch.tensor([[0.8], [0.0]])).tolist()
+    [[0.75, 0.0]]
+    """
     weighted = trust * information.T  # (B, K)
     total = weighted.sum(1, keepdim=True)
     scale = torch.where(total > 0, trust.sum(1, keepdim=True) / total.clamp_min(1e-12), 0.0)
@@ -185,7 +198,18 @@ def silent_states(distributions: torch.Tensor) -> torch.Tensor:
     >>> silent_states(dists).tolist()   # state 0: teacher 0 says something; state 1: nobody
     [0.0, 1.0]
     """
-    return (advice_information(distributions).max(0).values <= SILENT_INFORMATION).float()
+    return silent_information(advice_information(distributions))
+
+
+def silent_information(information: torch.Tensor) -> torch.Tensor:
+    """``(B,)``: 1.0 where no teacher's information ``(K, B)`` exceeds
+    :data:`SILENT_INFORMATION`, 0.0 elsewhere (:func:`silent_states` for discrete advice; Box
+    advice gives its information directly).
+
+    >>> silent_information(torch.tensor([[1.0, 0.0], [0.0, 0.0]])).tolist()
+    [0.0, 1.0]
+    """
+    return (information.max(0).values <= SILENT_INFORMATION).float()
 
 
 def imitation_loss(neg_log_likelihoods: torch.Tensor, trust: torch.Tensor) -> torch.Tensor:

@@ -40,7 +40,7 @@ from tlac.algorithms.optim import ForeachRMSpropTFLike
 from tlac.errors import ConfigError
 from tlac.memory import FLOAT_BYTES, check_fits, mlp_params, network_bytes
 from tlac.presets import make_schedule
-from tlac.teachers.base import advice_probabilities
+from tlac.teachers.base import advice_actions, advice_probabilities
 
 IMITATION_STD = 0.1
 """Box actions: the imitation term is the negative log-likelihood of the teachers' actions under
@@ -294,10 +294,12 @@ class TLACHeads:
         return gaussian_log_prob(actions, low_out, self._low_log_std(latent))
 
     def _advice_on(self, obs: torch.Tensor) -> torch.Tensor:
-        """Every teacher's action in every row of ``obs``: ``(n_teachers, n)`` (discrete) or
-        ``(n_teachers, n, act_dim)`` (Box), each teacher asked once for the whole batch; with
-        discrete actions each teacher's distribution over them, ``(n_teachers, n, n_actions)``
-        (tlac.teachers.base.advice_probabilities: a point mass where a teacher cannot tell)."""
+        """Every teacher's advice in every row of ``obs``, each teacher asked once for the whole
+        batch. Discrete actions: its distribution over them, ``(n_teachers, n, n_actions)``
+        (tlac.teachers.base.advice_probabilities: a point mass where a teacher cannot tell).
+        Box actions: ``(n_teachers, n, act_dim + 1)``, the action it means and, in the last
+        column, its information (tlac.teachers.base.advice_actions: its own action and 1 where
+        a teacher cannot tell)."""
         raw = self._teacher_rows(obs.numpy())
         n = obs.shape[0]
         if self.discrete:
@@ -306,14 +308,11 @@ class TLACHeads:
                     [advice_probabilities(t, raw, self.action_space) for t in self.teachers]
                 ).astype(np.float32)
             )
-        choices = np.zeros(n, dtype=np.int64)
         out = []
-        for k in range(self.n_teachers):
-            actions = np.zeros((n, *self.action_space.shape), dtype=np.float32)
-            choices[:] = k
-            query_teachers(self.teachers, choices, raw, self.action_space, actions)
-            out.append(torch.from_numpy(actions.reshape(n, -1)))
-        return torch.stack(out)
+        for teacher in self.teachers:
+            actions, information = advice_actions(teacher, raw, self.action_space)
+            out.append(np.concatenate([actions.reshape(n, -1), information[:, None]], axis=1))
+        return torch.from_numpy(np.stack(out).astype(np.float32))
 
     def _advice_nll(
         self, low_out: torch.Tensor, latent: torch.Tensor, advice: torch.Tensor
@@ -338,13 +337,16 @@ class TLACHeads:
     ) -> torch.Tensor:
         """DAgger on replayed states: each teacher's advice weighted by the high level's trust
         in that teacher (the softmax over the teachers' logits only; no gradient), re-weighted
-        (discrete actions) by how much its advice says there (losses.informative_trust).
-        ``advice``: discrete actions, the labels copied (losses.advice_labels of the teachers'
-        distributions); ``information``: losses.advice_information of those distributions, if
-        computed already (else computed from ``advice``)."""
+        by how much its advice says there (losses.informative_trust, losses.reweighted_trust).
+        ``advice``: the labels copied (discrete actions: losses.advice_labels of the teachers'
+        distributions; Box actions: the actions they mean); ``information``: discrete actions,
+        losses.advice_information of those distributions if computed already (else computed
+        from ``advice``); Box actions, the teachers' information (None: all 1)."""
         trust = torch.softmax(high_logits.detach()[:, : self.n_teachers], -1)
         if self.discrete:  # advice: (K, B, A) distributions
             trust = losses.informative_trust(trust, advice, information)
+        elif information is not None:  # advice: (K, B, act_dim) actions
+            trust = losses.reweighted_trust(trust, information)
         return losses.imitation_loss(self._advice_nll(low_out, latent, advice), trust)
 
     def _mean_entropies(

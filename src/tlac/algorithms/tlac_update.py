@@ -162,8 +162,9 @@ class ReplayPlan:
 
     draws: ReplayDraws
     advice: torch.Tensor
-    """``(n_teachers, rows, ...)``: the advice in every drawn row, in draw order (discrete
-    actions: losses.advice_labels of it, the labels the student copies)."""
-    information: torch.Tensor | None
-    """``(n_teachers, rows)``: losses.advice_information of the drawn advice before its labels
-    were taken (discrete actions)."""
+    """``(n_teachers, rows, ...)``: the labels copied in every drawn row, in draw order
+    (discrete actions: losses.advice_labels of the advice; Box actions: the actions meant)."""
+    information: torch.Tensor
+    """``(n_teachers, rows)``: how much each teacher's advice says in each row (discrete
+    actions: losses.advice_information of the advice before its labels were taken; Box
+    actions: the information the teachers gave, tlac.teachers.base.advice_actions)."""

@@ -165,11 +165,12 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self.train_high = self.selector.trains_high_level and self.n_choices > 1
         self.advice_buffer: AdviceBuffer | None = None
         if self.n_teachers and cfg.distill_coef != 0:
-            # per state, each teacher's distribution over actions (discrete) or action (Box)
+            # per state, each teacher's distribution over actions (discrete) or the action it
+            # means and its information (Box; TLACHeads._advice_on)
             self.advice_buffer = AdviceBuffer(
                 cfg.imitation_buffer_size,
                 self.obs_dim,
-                (self.n_teachers, self.net.out_dims[LOW]),
+                (self.n_teachers, self.net.out_dims[LOW] + (0 if self.discrete else 1)),
                 torch.float32,
                 None if self.obs_layout is None else self.obs_layout.storage_dtype,
             )
@@ -295,8 +296,12 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 data["obs"] if unwrap_vec_normalize(self.env) is None else data["teacher_obs"]
             )
             self.advice_buffer.add(data["obs"], advice)
-            if self.discrete and cfg.low_level_data == "silent":  # advice: distributions
-                silent = losses.silent_states(advice)
+            if cfg.low_level_data == "silent":
+                silent = (
+                    losses.silent_states(advice)  # advice: distributions
+                    if self.discrete
+                    else losses.silent_information(advice[..., -1])
+                )
         rows = row_weights(
             cfg, data, self.n_teachers, self.train_high, self.solo is not None, has_advice, silent
         )
@@ -486,8 +491,8 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             len(buffer), self.config.imitation_batch_size, max_batches, self._replay_generator
         )
         advice = buffer.advice[draws.idx].transpose(0, 1)  # (n_teachers, rows, ...)
-        if not self.discrete:
-            return ReplayPlan(draws, advice, None)
+        if not self.discrete:  # the actions meant, and their information
+            return ReplayPlan(draws, advice[..., :-1], advice[..., -1])
         return ReplayPlan(draws, losses.advice_labels(advice), losses.advice_information(advice))
 
     def _replayed_imitation(self, replay: ReplayPlan) -> torch.Tensor:
@@ -495,7 +500,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         assert self.advice_buffer is not None
         rows = replay.draws.next()
         obs = self.advice_buffer.obs[replay.draws.idx[rows]]
-        information = None if replay.information is None else replay.information[:, rows]
+        information = replay.information[:, rows]
         return self._imitation_term(*self._replay_heads(obs), replay.advice[:, rows], information)
 
     def learn(

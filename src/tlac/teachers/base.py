@@ -257,3 +257,35 @@ def advice_probabilities(teacher: Any, obs: np.ndarray, action_space: gym.Space)
     probs = np.zeros((n, n_actions))
     probs[np.arange(n), actions] = 1.0
     return probs
+
+
+def advice_actions(
+    teacher: Any, obs: np.ndarray, action_space: gym.Space
+) -> tuple[np.ndarray, np.ndarray]:
+    """For a Box action space, what ``teacher`` means in every row of ``obs``: ``(actions (n,
+    *shape) float32, information (n,))``. A teacher whose actions mix an informative part with
+    uniformly random ones says so (``informative_actions(obs)``: tlac's random, good / noisy,
+    Gaussian-noise and partial teachers): the action of its informative part (its base's) and
+    that part's weight, 0 where it says nothing (a random teacher, a partial one outside its
+    region). Any other teacher means the action it gives, with information 1. The Box
+    counterpart of :func:`advice_probabilities`: a good teacher's label is its base's action,
+    not one of its random draws.
+
+    >>> box = gym.spaces.Box(-1.0, 1.0, (2,))
+    >>> t = as_teacher(lambda obs: np.array([0.5, -0.5]), box)
+    >>> actions, information = advice_actions(t, np.zeros((1, 3)), box)
+    >>> actions.tolist(), information.tolist()
+    ([[0.5, -0.5]], [1.0])
+    """
+    n = batch_len(obs)
+    inner = teacher.teacher if isinstance(teacher, NamedTeacher) else teacher
+    if not hasattr(inner, "informative_actions"):
+        return ask_teacher(teacher, obs, action_space), np.ones(n)
+    actions, information = inner.informative_actions(obs)
+    information = np.asarray(information, dtype=np.float64)
+    if information.shape != (n,) or not np.all((information >= 0) & (information <= 1)):
+        raise TeacherError(
+            f"teacher {teacher.name!r}: informative_actions gave information of shape "
+            f"{information.shape} (expected ({n},) values in [0, 1])"
+        )
+    return check_actions(teacher.name, actions, action_space, n), information

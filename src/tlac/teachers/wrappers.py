@@ -28,7 +28,7 @@ import gymnasium as gym
 import numpy as np
 
 from tlac.errors import ConfigError
-from tlac.teachers.base import Teacher, advice_probabilities, as_teacher
+from tlac.teachers.base import Teacher, advice_actions, advice_probabilities, as_teacher
 
 
 def _check_probability(name: str, value: float) -> float:
@@ -71,6 +71,15 @@ def _as_batch(obs: np.ndarray) -> np.ndarray:
     return np.asarray(obs)
 
 
+def silent_actions(space: gym.Space, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(actions, information)`` of advice that says nothing in ``n`` rows of a Box: the box's
+    centre (never copied: its information is 0)."""
+    if not isinstance(space, gym.spaces.Box):
+        raise ConfigError(f"informative actions need a Box action space; got {space}")
+    centre = ((space.low.astype(np.float64) + space.high.astype(np.float64)) / 2).astype(np.float32)
+    return np.repeat(centre[None], n, axis=0), np.zeros(n)
+
+
 def uniform_probabilities(space: gym.Space, n: int) -> np.ndarray:
     """``(n, space.n)``: the uniform distribution over a Discrete space's actions, per row."""
     if not isinstance(space, gym.spaces.Discrete):
@@ -98,6 +107,10 @@ class RandomTeacher:
     def action_probabilities(self, obs: np.ndarray) -> np.ndarray:
         """Discrete: uniform in every row (draws nothing)."""
         return uniform_probabilities(self.action_space, len(_as_batch(obs)))
+
+    def informative_actions(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Box: information 0 in every row (draws nothing)."""
+        return silent_actions(self.action_space, len(_as_batch(obs)))
 
 
 class MixedRandomTeacher:
@@ -144,6 +157,19 @@ class MixedRandomTeacher:
         base = advice_probabilities(self.base, obs, self.action_space)
         uniform = uniform_probabilities(self.action_space, len(obs))
         return self.p_teacher * base + (1.0 - self.p_teacher) * uniform
+
+    def informative_actions(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Box: the base's action, with information ``p_teacher`` times the base's (draws
+        nothing from this teacher's generator).
+
+        >>> box = gym.spaces.Box(-1.0, 1.0, (1,))
+        >>> t = MixedRandomTeacher(lambda o: np.array([0.5]), 0.8, box, seed=0)
+        >>> actions, information = t.informative_actions(np.zeros((1, 2)))
+        >>> actions.tolist(), information.tolist()
+        ([[0.5]], [0.8])
+        """
+        actions, information = advice_actions(self.base, _as_batch(obs), self.action_space)
+        return actions, self.p_teacher * information
 
 
 class GaussianNoiseTeacher:
@@ -215,6 +241,10 @@ class GaussianNoiseTeacher:
         low, high = self.action_space.low, self.action_space.high
         return np.clip(actions, low, high).astype(np.float32)
 
+    def informative_actions(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The base's action (the noise's mean) and information (draws nothing)."""
+        return advice_actions(self.base, _as_batch(obs), self.action_space)
+
 
 class PartialTeacher:
     """Good advice in part of the state space only (section 5.2; Teacher L / R, Pick / Place).
@@ -277,6 +307,18 @@ class PartialTeacher:
             probs[inside] = advice_probabilities(self.base, obs[inside], self.action_space)
         return probs
 
+    def informative_actions(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Box: the base's action and information inside the regions, information 0 outside
+        them (draws nothing)."""
+        obs = _as_batch(obs)
+        inside = self.applies(obs)
+        actions, information = silent_actions(self.action_space, len(obs))
+        if inside.any():
+            actions[inside], information[inside] = advice_actions(
+                self.base, obs[inside], self.action_space
+            )
+        return actions, information
+
 
 __all__ = [
     "GaussianNoiseTeacher",
@@ -284,5 +326,6 @@ __all__ = [
     "PartialTeacher",
     "RandomTeacher",
     "sample_uniform",
+    "silent_actions",
     "uniform_probabilities",
 ]
