@@ -28,6 +28,13 @@ from tlac.errors import ConfigError, TeacherError
 from tlac.evaluation import evaluate_student
 from tlac.presets import load_preset
 from tlac.run import RunSpec, train_run
+from tlac.teachers.base import advice_actions, as_teacher
+from tlac.teachers.wrappers import (
+    GaussianNoiseTeacher,
+    MixedRandomTeacher,
+    PartialTeacher,
+    RandomTeacher,
+)
 
 # sha256 (first 16 hex digits) of episodes.csv of the paper variant: DoorKey, seed 3, 6000 steps.
 # Only a commit that changes the paper variant on purpose (and says why) may change them.
@@ -611,7 +618,7 @@ def test_the_student_copies_a_noisy_teachers_base_action():
 def test_box_imitation_weighs_the_teachers_actions_by_the_high_levels_trust():
     """On a Box space the advice is the teachers' actions, not distributions: the imitation
     term is their scaled squared errors weighted by the softmax of the teachers' logits (the
-    agent's logit left out), with no information re-weighting."""
+    agent's logit left out); without information (all 1) nothing is re-weighted."""
     high = torch.tensor([[0.3, -0.2, 0.1]])  # 2 teachers + agent
     mean, latent = torch.tensor([[0.5, 0.0, -0.5]]), torch.zeros(1, 64)
     advice = torch.tensor([[[0.7, 0.2, 0.1]], [[-0.9, 0.5, 0.0]]])  # 2 teachers x 1 state x 3
@@ -621,6 +628,61 @@ def test_box_imitation_weighs_the_teachers_actions_by_the_high_levels_trust():
     trust = torch.softmax(torch.tensor([0.3, -0.2]), 0)
     errors = losses.scaled_squared_error(mean, advice, model._imitation_scale)[:, 0]
     assert got == pytest.approx(float((trust * errors).sum()))
+
+
+def test_box_advice_is_the_base_action_and_a_random_teacher_is_not_copied():
+    """Box advice, wired from the teachers to the imitation term: a good teacher (its base with
+    probability 0.8) gives its base's action with information 0.8, a random one information 0,
+    so on a state trusted to both equally the term is the base action's whole scaled error."""
+    box = gym.spaces.Box(-1.0, 1.0, (3,))
+    base = np.array([0.6, -0.2, 0.4], np.float32)
+    good = MixedRandomTeacher(lambda obs: base, 0.8, box, seed=0, name="good")
+    model = TLAC(gym.make("Hopper-v5"), teachers=[good, RandomTeacher(box, seed=1)], seed=0)
+    obs = torch.zeros(1, model.obs_dim)
+    model.advice_buffer.add(obs, model._advice_on(obs))
+    plan = model._replay_plan(1)  # every drawn row is the one stored state
+    assert plan.advice[0, 0].tolist() == pytest.approx(base.tolist())
+    assert plan.information[:, 0].tolist() == pytest.approx([0.8, 0.0])
+    mean, latent = torch.tensor([[0.0, 0.0, 0.0]]), torch.zeros(1, 64)
+    high = torch.tensor([[0.0, 0.0, -30.0]])  # the two teachers equal; the agent ~0
+    labels, information = plan.advice[:, :1], plan.information[:, :1]
+    got = float(model._imitation_term(high, mean, latent, labels, information))
+    # 0.5 * mean_d (base_d / (0.1 * 1))^2 with trust 1 on the good teacher
+    assert got == pytest.approx(0.5 * float(np.mean((base / 0.1) ** 2)), rel=1e-5)
+
+
+def test_box_teachers_say_what_they_mean():
+    """Hand-checked advice_actions of tlac's Box teachers: random says nothing; good / noisy
+    give their base with information 0.8 / 0.2; Gaussian noise its base; partial its base
+    inside its region and nothing outside; a plain function its action with information 1.
+    None of them draws from its generator."""
+    box = gym.spaces.Box(-2.0, 2.0, (2,))
+    base = lambda obs: np.array([1.5, -0.5], np.float32)  # noqa: E731
+    obs = np.array([[-1.0], [1.0]])
+    partial = PartialTeacher(base, lambda b: (b[:, 0] > 0).astype(int), [0], box, seed=0)
+    cases = {
+        "random": (RandomTeacher(box, seed=0), [[0, 0], [0, 0]], [0.0, 0.0]),
+        "noisy": (MixedRandomTeacher(base, 0.2, box, seed=0), [[1.5, -0.5]] * 2, [0.2, 0.2]),
+        "gauss": (
+            GaussianNoiseTeacher(base, 0.3, box, 0, rescale=False),
+            [[1.5, -0.5]] * 2,
+            [1, 1],
+        ),
+        "partial": (partial, [[1.5, -0.5], [0, 0]], [1.0, 0.0]),
+        "function": (as_teacher(base, box), [[1.5, -0.5]] * 2, [1.0, 1.0]),
+    }
+    for name, (teacher, actions, information) in cases.items():
+        state = getattr(getattr(teacher, "rng", None), "bit_generator", None)
+        before = None if state is None else state.state
+        got_actions, got_information = advice_actions(teacher, obs, box)
+        np.testing.assert_allclose(got_actions, actions, err_msg=name)
+        assert got_information.tolist() == pytest.approx(information), name
+        assert before is None or teacher.rng.bit_generator.state == before, name
+    reweighted = losses.reweighted_trust(
+        torch.tensor([[0.3, 0.3, 0.2]]), torch.tensor([[0.5], [0.0], [1.0]])
+    )
+    # weighted 0.15, 0, 0.2 (sum 0.35), rescaled to keep the total trust 0.8
+    np.testing.assert_allclose(reweighted[0], [0.15 * 0.8 / 0.35, 0.0, 0.2 * 0.8 / 0.35], rtol=1e-6)
 
 
 def test_a_random_teachers_trust_moves_to_the_teacher_that_knows():
