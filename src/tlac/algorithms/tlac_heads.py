@@ -355,22 +355,13 @@ class TLACHeads:
         low_out: torch.Tensor,
         latent: torch.Tensor,
         cap_high: float | None = None,
-        low_rows: torch.Tensor | None = None,
     ) -> torch.Tensor:
         """Mean entropy of each trained level: ``[H_low]`` or ``[H_low, H_high]``; with
-        ``cap_high``, each state's high-level entropy counts up to that value only. ``low_rows``
-        (0/1 per row): the rows the low level's policy gradient uses, the only ones its entropy
-        counts on (None: all). The bonus regularises that policy gradient; on rows trained by
-        imitation alone it would be the only force on a Box policy's noise, which imitation
-        leaves alone, and it grew hopper's exploration noise from 0.14 to ~0.7 over 3e5 steps."""
+        ``cap_high``, each state's high-level entropy counts up to that value only."""
         if self.discrete:
-            per_row = categorical_entropy(torch.log_softmax(low_out, -1))
+            low = categorical_entropy(torch.log_softmax(low_out, -1)).mean()
         else:
-            per_row = gaussian_entropy(self._low_log_std(latent))
-        if low_rows is None:
-            low = per_row.mean()
-        else:
-            low = (per_row * low_rows).sum() / low_rows.sum().clamp(min=1.0)
+            low = gaussian_entropy(self._low_log_std(latent)).mean()
         if not self.train_high:
             return low[None]
         high = categorical_entropy(torch.log_softmax(high_logits, -1))

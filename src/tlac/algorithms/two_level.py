@@ -409,13 +409,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             loss = loss + distill * imitation
             log.imitation.append(imitation.detach())
         if self._use_entropy:  # skipped when both coefficients are 0 (Table 5)
-            entropies = self._mean_entropies(
-                high_logits,
-                low_out,
-                latent,
-                cfg.ent_cap_high or None,
-                None if weights is None else weights[0],
-            )
+            entropies = self._mean_entropies(high_logits, low_out, latent, cfg.ent_cap_high or None)
             loss = loss - (self._ent_coefs[: len(entropies)] * entropies).sum()
         log.losses_and_kls.append(torch.cat([policy_losses.detach(), vf_loss.detach()[None], kls]))
         log.clip_fractions.append(losses.clip_fractions(log_probs, old, clip, weights))
