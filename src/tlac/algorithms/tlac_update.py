@@ -33,13 +33,16 @@ def row_weights(
     solo: bool,
     has_advice: bool,
     silent: torch.Tensor | None = None,
+    greedy_solo: bool = False,
 ) -> RowWeights:
     """The rows of an update (``data``: the flat rollout). ``solo``: some episodes are the
     student's alone (no high-level choice in them); ``has_advice``: the advice buffer already
     holds states from earlier updates (``kl_rows: high`` falls back to the agent's rows while
     it is empty, as on the very first update); ``silent`` ``(n,)`` 0/1: the rows where every
     teacher's advice is uniform (losses.silent_states), for ``low_level_data: silent`` (None:
-    no row is silent, so the imitation term alone trains the low level).
+    no row is silent, so the imitation term alone trains the low level); ``greedy_solo``: the
+    solo episodes' actions are pi_low's means, not samples of it, so its policy gradient leaves
+    their rows out (TLAC.greedy_solo).
 
     >>> cfg = TLACConfig.from_settings({"variant": "paper"})
     >>> data = {"log_prob_low": torch.zeros(3), "log_prob_high": torch.ones(3),
@@ -58,6 +61,7 @@ def row_weights(
     # on every row outside the student's solo episodes.
     agent_rows = (data["choices"] == n_teachers).float()
     high_rows = 1.0 - data["solo"]
+    sampled_rows = high_rows * agent_rows if greedy_solo else agent_rows  # pi_low's samples
     rule = cfg.kl_rows if cfg.kl_rows != "high" or has_advice else "agent"
     low_kl_rows = {"agent": agent_rows, "all": torch.ones(n), "high": torch.zeros(n)}[rule]
     kl = torch.stack([low_kl_rows, high_rows])[:levels]
@@ -69,11 +73,11 @@ def row_weights(
     if cfg.low_level_data == "all":
         low_loss_rows = torch.ones(n)
     elif cfg.low_level_data == "agent" or not has_advice:
-        low_loss_rows = agent_rows
+        low_loss_rows = sampled_rows
     elif silent is None:
         low_loss_rows = torch.zeros(n)
     else:
-        low_loss_rows = agent_rows * silent
+        low_loss_rows = sampled_rows * silent
     every_row = cfg.low_level_data == "all" and not solo  # the paper variant: no weights at all
     loss = None if every_row else torch.stack([low_loss_rows, high_rows])[:levels]
     return RowWeights(old_log_probs, kl, loss)
