@@ -713,3 +713,36 @@ def test_removed_settings_are_refused_naming_what_replaced_them():
         TLACConfig.from_settings({"keep_best_student": False})
     with pytest.raises(ConfigError, match="low_level_data 'none' was removed: use 'silent'"):
         TLAC("doorkey", teachers=["random"], low_level_data="none")
+
+
+def test_box_solo_episodes_are_greedy_and_leave_the_policy_gradient():
+    """Box actions with a low level trained by imitation (`low_level_data: silent`): a solo
+    episode acts with pi_low's mean (the student a user deploys), and its rows are no samples
+    of pi_low, so the low level's policy gradient leaves them out. With `agent` (the default
+    preset of a user's environment) solo episodes stay sampled."""
+    push = lambda obs: np.array([np.clip(-0.5 * obs[2], -2.0, 2.0)], np.float32)  # noqa: E731
+    settings = {"solo_budget": 1.0, "normalize_obs": False, "teacher_episodes": 0.0}
+    model = TLAC(
+        gym.make("Pendulum-v1"), teachers=[push], low_level_data="silent", seed=0, **settings
+    )
+    from tlac.algorithms.tlac_update import row_weights
+
+    assert model.greedy_solo
+    ro = model.collect()
+    solo = ro.solo.reshape(-1) > 0
+    assert solo.any()
+    means = model._act_heads(ro.obs.reshape(len(solo), -1))[1]
+    np.testing.assert_allclose(ro.actions.reshape(len(solo), -1)[solo], means[solo], atol=1e-5)
+    data = {
+        "log_prob_low": torch.zeros(4),
+        "log_prob_high": torch.zeros(4),
+        "choices": torch.tensor([1, 1, 0, 1]),  # the agent (1) acts in rows 0, 1 and 3
+        "solo": torch.tensor([1.0, 0.0, 0.0, 0.0]),
+    }
+    cfg = model.config
+    greedy = row_weights(cfg, data, 1, True, True, True, torch.ones(4), greedy_solo=True)
+    sampled = row_weights(cfg, data, 1, True, True, True, torch.ones(4), greedy_solo=False)
+    assert greedy.loss[0].tolist() == [0.0, 1.0, 0.0, 1.0]
+    assert sampled.loss[0].tolist() == [1.0, 1.0, 0.0, 1.0]
+    sampling = TLAC(gym.make("Pendulum-v1"), teachers=[push], seed=0, **settings)
+    assert sampling.config.low_level_data == "agent" and not sampling.greedy_solo
