@@ -656,20 +656,23 @@ def test_box_teachers_say_what_they_mean():
     give their base with information 0.8 / 0.2; Gaussian noise its base; partial its base
     inside its region and nothing outside; a plain function its action with information 1.
     None of them draws from its generator."""
-    box = gym.spaces.Box(-2.0, 2.0, (2,))
-    base = lambda obs: np.array([1.5, -0.5], np.float32)  # noqa: E731
+    box = gym.spaces.Box(
+        np.array([-2, 0], np.float32), np.array([2, 4], np.float32)
+    )  # centre (0, 2)
+    base = lambda obs: np.array([1.5, 0.5], np.float32)  # noqa: E731
     obs = np.array([[-1.0], [1.0]])
     partial = PartialTeacher(base, lambda b: (b[:, 0] > 0).astype(int), [0], box, seed=0)
+    beyond = lambda obs: np.array([2.5, 0.5], np.float32)  # noqa: E731 - outside the box
     cases = {
-        "random": (RandomTeacher(box, seed=0), [[0, 0], [0, 0]], [0.0, 0.0]),
-        "noisy": (MixedRandomTeacher(base, 0.2, box, seed=0), [[1.5, -0.5]] * 2, [0.2, 0.2]),
+        "random": (RandomTeacher(box, seed=0), [[0, 2], [0, 2]], [0.0, 0.0]),
+        "noisy": (MixedRandomTeacher(base, 0.2, box, seed=0), [[1.5, 0.5]] * 2, [0.2, 0.2]),
         "gauss": (
-            GaussianNoiseTeacher(base, 0.3, box, 0, rescale=False),
-            [[1.5, -0.5]] * 2,
+            GaussianNoiseTeacher(beyond, 0.3, box, 0, rescale=False),
+            [[2.0, 0.5]] * 2,  # clipped to the box, as its predict clips
             [1, 1],
         ),
-        "partial": (partial, [[1.5, -0.5], [0, 0]], [1.0, 0.0]),
-        "function": (as_teacher(base, box), [[1.5, -0.5]] * 2, [1.0, 1.0]),
+        "partial": (partial, [[1.5, 0.5], [0, 2]], [1.0, 0.0]),
+        "function": (as_teacher(base, box), [[1.5, 0.5]] * 2, [1.0, 1.0]),
     }
     for name, (teacher, actions, information) in cases.items():
         state = getattr(getattr(teacher, "rng", None), "bit_generator", None)
@@ -746,3 +749,43 @@ def test_box_solo_episodes_are_greedy_and_leave_the_policy_gradient():
     assert sampled.loss[0].tolist() == [1.0, 1.0, 0.0, 1.0]
     sampling = TLAC(gym.make("Pendulum-v1"), teachers=[push], seed=0, **settings)
     assert sampling.config.low_level_data == "agent" and not sampling.greedy_solo
+
+
+def test_greedy_solo_rows_leave_the_kl_estimate_and_apply_with_silent_only():
+    """The agent's-rows KL estimate (the first update's fallback) leaves greedy solo rows out,
+    and greedy solo episodes apply only where the low level learns by imitation (`silent`):
+    with `all` or `agent` its policy gradient needs sampled solo rows."""
+    from tlac.algorithms.tlac_update import row_weights
+
+    push = lambda obs: np.array([np.clip(-0.5 * obs[2], -2.0, 2.0)], np.float32)  # noqa: E731
+    for data_rule, greedy in (("silent", True), ("all", False), ("agent", False)):
+        model = TLAC(
+            gym.make("Pendulum-v1"), teachers=[push], low_level_data=data_rule, solo_budget=0.5
+        )
+        assert model.greedy_solo is greedy, data_rule
+    data = {
+        "log_prob_low": torch.zeros(3),
+        "log_prob_high": torch.zeros(3),
+        "choices": torch.tensor([1, 1, 0]),
+        "solo": torch.tensor([1.0, 0.0, 0.0]),
+    }
+    cfg = TLACConfig.from_settings({"low_level_data": "silent", "kl_rows": "agent"})
+    rows = row_weights(cfg, data, 1, True, True, True, torch.ones(3), greedy_solo=True)
+    assert rows.kl[0].tolist() == [0.0, 1.0, 0.0]
+
+
+def test_a_box_checkpoint_without_the_information_column_is_refused(tmp_path):
+    """A Box run's advice buffer stores each teacher's information in a last column since
+    2026-11-27; resuming a checkpoint whose rows have another shape is a ConfigError, not a
+    silent misreading (with one action dimension the action would read as information)."""
+    push = lambda obs: np.array([np.clip(-0.5 * obs[2], -2.0, 2.0)], np.float32)  # noqa: E731
+    model = TLAC(gym.make("Pendulum-v1"), teachers=[push], n_steps=64, batch_size=64, seed=0)
+    model.learn(128, progress_bar=False)
+    path = tmp_path / "run.pt"
+    model.save(path, training_state=True)
+    state = torch.load(path, weights_only=True)
+    advice = state["training"]["advice"]
+    advice["advice"] = advice["advice"][..., :-1]  # as a Box run saved before the column
+    torch.save(state, path)
+    with pytest.raises(ConfigError, match="advice buffer holds rows of shape"):
+        TLAC.load(path, env=gym.make("Pendulum-v1"), teachers=[push], resume=True)

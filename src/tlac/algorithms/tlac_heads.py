@@ -63,6 +63,7 @@ def _check_memory(
     n_choices: int,
     low_out: int,
     n_teachers: int,
+    advice_width: int,
 ) -> None:
     """Refuse, before anything is allocated, settings whose networks, rollout or imitation
     buffer would not fit in the memory available (a ConfigError naming the largest)."""
@@ -82,7 +83,7 @@ def _check_memory(
     if n_teachers and cfg.distill_coef != 0:
         rows = cfg.imitation_buffer_size
         parts[f"the imitation buffer (imitation_buffer_size={rows})"] = (
-            FLOAT_BYTES * rows * (obs_dim + n_teachers * low_out)
+            FLOAT_BYTES * rows * (obs_dim + n_teachers * advice_width)
         )
     check_fits(parts, "lower that setting")
 
@@ -161,7 +162,14 @@ class TLACHeads:
         if cfg.use_sde and self.discrete:
             raise ConfigError("use_sde applies to Box action spaces only")
         _check_memory(
-            cfg, net_in, self.obs_dim, self.n_envs, self.n_choices, low_out, self.n_teachers
+            cfg,
+            net_in,
+            self.obs_dim,
+            self.n_envs,
+            self.n_choices,
+            low_out,
+            self.n_teachers,
+            low_out + (0 if self.discrete else 1),  # Box: the actions and their information
         )
         self.net = StackedMLP(
             net_in,

@@ -334,6 +334,13 @@ class TLACPersistence:
             restore_attributes(self.solo, state["solo"])
         if state["advice"] is not None and self.advice_buffer is not None:
             buf, saved = self.advice_buffer, state["advice"]
+            if tuple(saved["advice"].shape[1:]) != tuple(buf.advice.shape[1:]):
+                raise ConfigError(
+                    f"the checkpoint's advice buffer holds rows of shape "
+                    f"{tuple(saved['advice'].shape[1:])}, these settings "
+                    f"{tuple(buf.advice.shape[1:])} (a Box run saved before 2026-11-27 stored no "
+                    "information column); resume it with the tlac version that saved it"
+                )
             buf.obs[: saved["size"]] = saved["obs"]
             buf.advice[: saved["size"]] = saved["advice"]
             buf.next, buf.size = saved["next"], saved["size"]

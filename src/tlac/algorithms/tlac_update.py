@@ -39,10 +39,11 @@ def row_weights(
     student's alone (no high-level choice in them); ``has_advice``: the advice buffer already
     holds states from earlier updates (``kl_rows: high`` falls back to the agent's rows while
     it is empty, as on the very first update); ``silent`` ``(n,)`` 0/1: the rows where every
-    teacher's advice is uniform (losses.silent_states), for ``low_level_data: silent`` (None:
+    teacher's advice is uniform, or for Box actions where every teacher's information is 0
+    (losses.silent_states, losses.silent_information), for ``low_level_data: silent`` (None:
     no row is silent, so the imitation term alone trains the low level); ``greedy_solo``: the
-    solo episodes' actions are pi_low's means, not samples of it, so its policy gradient leaves
-    their rows out (TLAC.greedy_solo).
+    solo episodes' actions are pi_low's means, not samples of it, so its policy gradient and its
+    KL estimate on the agent's rows leave them out (TLAC.greedy_solo).
 
     >>> cfg = TLACConfig.from_settings({"variant": "paper"})
     >>> data = {"log_prob_low": torch.zeros(3), "log_prob_high": torch.ones(3),
@@ -63,7 +64,7 @@ def row_weights(
     high_rows = 1.0 - data["solo"]
     sampled_rows = high_rows * agent_rows if greedy_solo else agent_rows  # pi_low's samples
     rule = cfg.kl_rows if cfg.kl_rows != "high" or has_advice else "agent"
-    low_kl_rows = {"agent": agent_rows, "all": torch.ones(n), "high": torch.zeros(n)}[rule]
+    low_kl_rows = {"agent": sampled_rows, "all": torch.ones(n), "high": torch.zeros(n)}[rule]
     kl = torch.stack([low_kl_rows, high_rows])[:levels]
     # the rows of the low level's policy gradient: "agent", only where it acted; "all", every
     # row; "silent": before the imitation term has advice to learn from (the first update, and

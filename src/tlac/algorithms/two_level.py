@@ -176,14 +176,14 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             )
         self._replay_generator = torch.Generator().manual_seed(self.seed + 1)
         self.solo: SoloEpisodes | None = None
-        # Box actions, where the low level learns by imitation (not low_level_data "agent"):
+        # Box actions, where the low level learns by imitation (low_level_data "silent"):
         # the student plays its solo episodes greedily. Imitation fits its Gaussian's mean and
         # leaves its noise untrained (a fixed-variance likelihood), so a sampled solo episode
         # measures that noise rather than the student a user deploys (hopper, seed 0: the live
         # student 593 greedy against 100 sampled; the kept student, chosen on sampled solo
         # returns, stayed at 190 while the live one reached 2170)
         self.greedy_solo = (
-            not self.discrete and bool(cfg.solo_budget) and cfg.low_level_data != "agent"
+            not self.discrete and bool(cfg.solo_budget) and cfg.low_level_data == "silent"
         )
         if cfg.solo_budget and self.n_teachers:
             self.solo = SoloEpisodes(

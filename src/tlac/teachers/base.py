@@ -281,7 +281,15 @@ def advice_actions(
     inner = teacher.teacher if isinstance(teacher, NamedTeacher) else teacher
     if not hasattr(inner, "informative_actions"):
         return ask_teacher(teacher, obs, action_space), np.ones(n)
-    actions, information = inner.informative_actions(obs)
+    try:
+        actions, information = inner.informative_actions(obs)
+    except TeacherError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - a user's teacher may raise anything
+        raise TeacherError(
+            f"teacher {teacher.name!r}: informative_actions raised {type(exc).__name__}: "
+            f"{str(exc)[:200]}"
+        ) from exc
     information = np.asarray(information, dtype=np.float64)
     if information.shape != (n,) or not np.all((information >= 0) & (information <= 1)):
         raise TeacherError(

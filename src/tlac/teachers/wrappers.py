@@ -242,8 +242,14 @@ class GaussianNoiseTeacher:
         return np.clip(actions, low, high).astype(np.float32)
 
     def informative_actions(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The base's action (the noise's mean) and information (draws nothing)."""
-        return advice_actions(self.base, _as_batch(obs), self.action_space)
+        """The base's action before the noise, clipped to the box as ``predict`` clips, with
+        information 1 whatever ``sigma`` (draws nothing)."""
+        obs = _as_batch(obs)
+        actions = np.array(self.base.predict(obs), dtype=np.float64).reshape(
+            len(obs), *self.action_space.shape
+        )
+        low, high = self.action_space.low, self.action_space.high
+        return np.clip(actions, low, high).astype(np.float32), np.ones(len(obs))
 
 
 class PartialTeacher:
