@@ -96,6 +96,7 @@ class TLACHeads:
     n_teachers: int
     n_choices: int
     n_envs: int
+    advice_width: int
     rng: np.random.Generator
     train_high: bool
     selector: Selector
@@ -161,6 +162,9 @@ class TLACHeads:
             raise ConfigError(f"TL-AC supports Discrete and Box action spaces, got {action_space}")
         if cfg.use_sde and self.discrete:
             raise ConfigError("use_sde applies to Box action spaces only")
+        # one teacher's advice in one state: a distribution (discrete), or the action it means
+        # and its information (Box; _advice_on)
+        self.advice_width = low_out + (0 if self.discrete else 1)
         _check_memory(
             cfg,
             net_in,
@@ -169,7 +173,7 @@ class TLACHeads:
             self.n_choices,
             low_out,
             self.n_teachers,
-            low_out + (0 if self.discrete else 1),  # Box: the actions and their information
+            self.advice_width,
         )
         self.net = StackedMLP(
             net_in,

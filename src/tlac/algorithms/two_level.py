@@ -165,12 +165,10 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self.train_high = self.selector.trains_high_level and self.n_choices > 1
         self.advice_buffer: AdviceBuffer | None = None
         if self.n_teachers and cfg.distill_coef != 0:
-            # per state, each teacher's distribution over actions (discrete) or the action it
-            # means and its information (Box; TLACHeads._advice_on)
-            self.advice_buffer = AdviceBuffer(
+            self.advice_buffer = AdviceBuffer(  # per state, every teacher's advice
                 cfg.imitation_buffer_size,
                 self.obs_dim,
-                (self.n_teachers, self.net.out_dims[LOW] + (0 if self.discrete else 1)),
+                (self.n_teachers, self.advice_width),
                 torch.float32,
                 None if self.obs_layout is None else self.obs_layout.storage_dtype,
             )

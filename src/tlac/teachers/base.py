@@ -172,17 +172,29 @@ def unique_names(names: list[str]) -> list[str]:
     return out
 
 
-def ask_teacher(teacher: Any, obs: np.ndarray, action_space: gym.Space) -> np.ndarray:
-    """``teacher``'s checked actions for the batch ``obs``; a teacher that raises is named in
-    a :class:`TeacherError` (with its own message), never a bare library exception."""
+def _named_errors(teacher: Any, call: Callable[[], Any], method: str = "") -> Any:
+    """``call()``; whatever a teacher raises is named in a :class:`TeacherError` (with its own
+    message, and ``method`` where it is not ``predict``), never a bare library exception."""
     try:
-        actions = teacher.predict(obs)
+        return call()
     except TeacherError:
         raise
     except Exception as exc:  # noqa: BLE001 - a user's teacher may raise anything
+        where = f": {method}" if method else ""
         raise TeacherError(
-            f"teacher {teacher.name!r} raised {type(exc).__name__}: {str(exc)[:200]}"
+            f"teacher {teacher.name!r}{where} raised {type(exc).__name__}: {str(exc)[:200]}"
         ) from exc
+
+
+def _unwrapped(teacher: Any) -> Any:
+    """The teacher a :class:`NamedTeacher` renames (its optional methods live there)."""
+    return teacher.teacher if isinstance(teacher, NamedTeacher) else teacher
+
+
+def ask_teacher(teacher: Any, obs: np.ndarray, action_space: gym.Space) -> np.ndarray:
+    """``teacher``'s checked actions for the batch ``obs``; a teacher that raises is named in
+    a :class:`TeacherError` (with its own message), never a bare library exception."""
+    actions = _named_errors(teacher, lambda: teacher.predict(obs))
     return check_actions(teacher.name, actions, action_space, batch_len(obs))
 
 
@@ -244,7 +256,7 @@ def advice_probabilities(teacher: Any, obs: np.ndarray, action_space: gym.Space)
     [[0.0, 0.0, 1.0]]
     """
     n_actions, n = int(action_space.n), batch_len(obs)
-    inner = teacher.teacher if isinstance(teacher, NamedTeacher) else teacher
+    inner = _unwrapped(teacher)
     if hasattr(inner, "action_probabilities"):
         probs = np.asarray(inner.action_probabilities(obs), dtype=np.float64)
         if probs.shape != (n, n_actions) or not np.allclose(probs.sum(1), 1.0):
@@ -278,18 +290,12 @@ def advice_actions(
     ([[0.5, -0.5]], [1.0])
     """
     n = batch_len(obs)
-    inner = teacher.teacher if isinstance(teacher, NamedTeacher) else teacher
+    inner = _unwrapped(teacher)
     if not hasattr(inner, "informative_actions"):
         return ask_teacher(teacher, obs, action_space), np.ones(n)
-    try:
-        actions, information = inner.informative_actions(obs)
-    except TeacherError:
-        raise
-    except Exception as exc:  # noqa: BLE001 - a user's teacher may raise anything
-        raise TeacherError(
-            f"teacher {teacher.name!r}: informative_actions raised {type(exc).__name__}: "
-            f"{str(exc)[:200]}"
-        ) from exc
+    actions, information = _named_errors(
+        teacher, lambda: inner.informative_actions(obs), "informative_actions"
+    )
     information = np.asarray(information, dtype=np.float64)
     if information.shape != (n,) or not np.all((information >= 0) & (information <= 1)):
         raise TeacherError(

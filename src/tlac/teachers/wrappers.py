@@ -227,29 +227,30 @@ class GaussianNoiseTeacher:
         self.name = name or f"{self.base.name}-gauss{sigma:g}"
         self.rng = np.random.default_rng(seed)
 
-    def predict(self, obs: np.ndarray) -> np.ndarray:
-        obs = _as_batch(obs)
-        actions = np.array(self.base.predict(obs), dtype=np.float64).reshape(
+    def _base_actions(self, obs: np.ndarray) -> np.ndarray:
+        return np.array(self.base.predict(obs), dtype=np.float64).reshape(
             len(obs), *self.action_space.shape
         )
+
+    def _in_box(self, actions: np.ndarray) -> np.ndarray:
+        return np.clip(actions, self.action_space.low, self.action_space.high).astype(np.float32)
+
+    def predict(self, obs: np.ndarray) -> np.ndarray:
+        obs = _as_batch(obs)
+        actions = self._base_actions(obs)
         part = actions[:, : self.dims] + self.rng.normal(0.0, self.sigma, (len(obs), self.dims))
         if self.rescale:
             scale = np.maximum(1.0, np.abs(part).max(axis=1, keepdims=True))
             part = part / scale
         actions[:, : self.dims] = part
         # Rescaling keeps [-1, 1] up to rounding; clipping makes the box exact either way.
-        low, high = self.action_space.low, self.action_space.high
-        return np.clip(actions, low, high).astype(np.float32)
+        return self._in_box(actions)
 
     def informative_actions(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The base's action before the noise, clipped to the box as ``predict`` clips, with
         information 1 whatever ``sigma`` (draws nothing)."""
         obs = _as_batch(obs)
-        actions = np.array(self.base.predict(obs), dtype=np.float64).reshape(
-            len(obs), *self.action_space.shape
-        )
-        low, high = self.action_space.low, self.action_space.high
-        return np.clip(actions, low, high).astype(np.float32), np.ones(len(obs))
+        return self._in_box(self._base_actions(obs)), np.ones(len(obs))
 
 
 class PartialTeacher:
