@@ -251,7 +251,7 @@ As measured: CartPole 0.51 of the way,
 Acrobot 0.76 (PPO's greedy return jumps from -500 to -191 between two of its rollouts),
 Pendulum -812 from a random policy's -1167 (SAC's own 1e5-step level was not measured: SAC
 runs at tens of steps per second here); LunarLander's agent is at about PPO's own 1e5-step level
-(-34 against -43), not below it (docs/graduation.md, "Learning past the teachers").
+(-34 against -43), not below it (docs/graduation.md, "Results").
 ``--train-weak-teachers`` makes them again (results/weak-teachers/teachers.json records their
 scores and versions)."""
 
@@ -296,6 +296,21 @@ WEAK_SUITE: dict[str, TeacherFactory] = {f"{e}+weak": _weak_teachers(e) for e in
 """The weak-teacher suite: each environment's briefly trained SB3 agent, passed as it is, plus
 a random teacher (the student must learn past them: issue 41)."""
 
+
+def _weak_teacher_only(env_id: str) -> TeacherFactory:
+    def factory(seed: int, space: gym.Space) -> list:
+        return [load_weak_teacher(env_id)]
+
+    return factory
+
+
+WEAK_ONLY_SUITE: dict[str, TeacherFactory] = {
+    f"{e}+weak-only": _weak_teacher_only(e) for e in WEAK_TEACHERS
+}
+"""Opt-in entries: the weak suite's agent as the ONLY teacher, ``TLAC(env, teachers=[model])``,
+the simplest thing a user does. With no random teacher beside it the student stops at its
+teacher's level on Acrobot and LunarLander (results/user-envs-weak-only, docs/graduation.md)."""
+
 SUITE: dict[str, TeacherFactory] = {
     "MountainCar-v0": _teachers_mountain_car,
     "Acrobot-v1": _teachers_acrobot,
@@ -307,6 +322,7 @@ SUITE: dict[str, TeacherFactory] = {
 or objects with a batched ``predict``), built for a seed and the environment's action space.
 An entry is a Gymnasium id, with ``+variant`` where the same environment has another teacher set."""
 SUITE.update(WEAK_SUITE)
+SUITE.update(WEAK_ONLY_SUITE)
 
 
 def gym_id(entry: str) -> str:

@@ -81,6 +81,16 @@ def test_suite_entries_of_one_environment_share_its_ppo_runs():
     )
 
 
+def test_weak_only_entries_give_the_weak_agent_alone():
+    """`+weak-only` is the weak entry without its random teacher: the same SB3 agent, alone,
+    and PPO's runs are shared with the other entries of the environment."""
+    space = gym.make("Acrobot-v1").action_space
+    weak = user_envs.SUITE["Acrobot-v1+weak"](0, space)
+    (only,) = user_envs.SUITE["Acrobot-v1+weak-only"](0, space)
+    assert len(weak) == 2 and type(only) is type(weak[0])
+    assert user_envs.run_name("Acrobot-v1+weak-only", "ppo", 1) == "Acrobot-v1__ppo__seed1"
+
+
 @pytest.mark.slow
 def test_the_student_learns_past_a_weak_cartpole_teacher():
     """Issue 41's learning test: the weak suite's CartPole teacher (an SB3 PPO agent trained
