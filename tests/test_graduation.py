@@ -615,6 +615,27 @@ def test_the_student_copies_a_noisy_teachers_base_action():
     assert term == pytest.approx(-math.log(0.3), abs=1e-5)
 
 
+def test_weaned_imitation_hands_over_with_an_entropy_bonus():
+    """presets/default.yaml (wean_imitation) on a discrete user environment: the low level's
+    entropy coefficient is the setting's (0) plus 0.05 x competence, the high level's stays
+    0.01. Competence (solo - floor) / (assisted - floor): -300 between -500 and -100 is 0.5.
+    DoorKey's preset (no weaning) and a Box action space (imitated under a fixed variance) get
+    no bonus."""
+    model = TLAC(gym.make("Acrobot-v1"), teachers=[lambda obs: 2], seed=0)
+    solo = model.solo
+    solo.floor, solo.best_assisted = -500.0, -100.0
+    solo.solo_returns.extend([-300.0] * 20)
+    assert solo.competence == pytest.approx(0.5)
+    assert model._entropy_coefs().tolist() == pytest.approx([0.025, 0.01])
+    solo.solo_returns.extend([-100.0] * 20)
+    assert model._entropy_coefs().tolist() == pytest.approx([0.05, 0.01])
+    doorkey = TLAC("doorkey", teachers=["optimal"], seed=0)
+    doorkey.solo.solo_returns.extend([1.0] * 20)
+    assert doorkey._entropy_coefs().tolist() == pytest.approx([0.0, 0.03])
+    pendulum = TLAC(gym.make("Pendulum-v1"), teachers=[lambda obs: np.zeros(1, np.float32)])
+    assert not pendulum._handover
+
+
 def test_box_imitation_weighs_the_teachers_actions_by_the_high_levels_trust():
     """On a Box space the advice is the teachers' actions, not distributions: the imitation
     term is their scaled squared errors weighted by the softmax of the teachers' logits (the

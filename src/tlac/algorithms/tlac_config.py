@@ -204,8 +204,10 @@ class TLACConfig:
     the student's measured competence rather than by time). On in the preset of a user's
     environment (presets/default.yaml), with low_level_data agent: there the student's own
     policy gradient takes over as the imitation fades, so it can learn past a weak teacher
-    (docs/graduation.md). Off in both variants: with the imitation term alone RMSprop
-    normalises a slowly varying scale away."""
+    (docs/graduation.md). With discrete actions the low level's entropy bonus then grows by
+    0.05 x competence (graduation.handover_entropy_coef): a copy of one deterministic teacher
+    leaves that policy gradient almost nothing to sample. Off in both variants: with the
+    imitation term alone RMSprop normalises a slowly varying scale away."""
     teacher_episodes: float = 0.0
     """With solo episodes: the share of the other episodes that one teacher plays alone from
     start to end ("teacher-led"), the teacher picked by UCB1 over the returns of its earlier

@@ -43,6 +43,7 @@ from tlac.algorithms.graduation import (
     AdviceBuffer,
     SoloEpisodes,
     StudentSnapshot,
+    handover_entropy_coef,
 )
 from tlac.algorithms.nets import (
     HIGH,
@@ -201,7 +202,10 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         # the logging window in progress (learn): its statistics and the high level's choices
         self._log_window: tuple[MetricWindow, np.ndarray] | None = None
         self._ent_coefs = torch.tensor(cfg.entropy_coefs)  # [low, high]
-        self._use_entropy = bool(self._ent_coefs.any())
+        # weaned imitation hands a discrete student over to its own policy gradient with an
+        # entropy bonus that grows with its competence (graduation.handover_entropy_coef)
+        self._handover = self.discrete and cfg.wean_imitation and self.solo is not None
+        self._use_entropy = bool(self._ent_coefs.any()) or self._handover
 
     @classmethod
     def check_hyperparameters(cls, hyperparameters: dict[str, Any]) -> TLACConfig:
@@ -426,7 +430,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             log.imitation.append(imitation.detach())
         if self._use_entropy:  # skipped when both coefficients are 0 (Table 5)
             entropies = self._mean_entropies(high_logits, low_out, latent, cfg.ent_cap_high or None)
-            loss = loss - (self._ent_coefs[: len(entropies)] * entropies).sum()
+            loss = loss - (self._entropy_coefs()[: len(entropies)] * entropies).sum()
         log.losses_and_kls.append(torch.cat([policy_losses.detach(), vf_loss.detach()[None], kls]))
         log.clip_fractions.append(losses.clip_fractions(log_probs, old, clip, weights))
         return loss, kls.detach(), (high_logits, low_out, latent)
@@ -495,6 +499,15 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         tlac.algorithms.graduation.worth_deploying)."""
         if worth:
             self.deployed = self._snapshot_student()
+
+    def _entropy_coefs(self) -> torch.Tensor:
+        """``[low, high]`` entropy coefficients of this gradient step: the settings', plus the
+        hand-over bonus on the low level under weaned imitation (discrete actions)."""
+        if not self._handover:
+            return self._ent_coefs
+        assert self.solo is not None
+        bonus = handover_entropy_coef(self.solo.competence)
+        return self._ent_coefs + torch.tensor([bonus, 0.0])
 
     def _replay_plan(self, max_batches: int) -> ReplayPlan:
         """The states the imitation term replays in each of up to ``max_batches`` minibatches,
