@@ -285,9 +285,12 @@ def train_weak_teacher(env_id: str) -> Path:
     return path
 
 
-def _weak_teachers(env_id: str) -> TeacherFactory:
+def _weak_teachers(env_id: str, with_random: bool = True) -> TeacherFactory:
+    """The weak suite's agent for ``env_id``, with a random teacher beside it or alone."""
+
     def factory(seed: int, space: gym.Space) -> list:
-        return [load_weak_teacher(env_id), random_teacher(space, seed)]
+        agent = load_weak_teacher(env_id)
+        return [agent, random_teacher(space, seed)] if with_random else [agent]
 
     return factory
 
@@ -296,20 +299,13 @@ WEAK_SUITE: dict[str, TeacherFactory] = {f"{e}+weak": _weak_teachers(e) for e in
 """The weak-teacher suite: each environment's briefly trained SB3 agent, passed as it is, plus
 a random teacher (the student must learn past them: issue 41)."""
 
-
-def _weak_teacher_only(env_id: str) -> TeacherFactory:
-    def factory(seed: int, space: gym.Space) -> list:
-        return [load_weak_teacher(env_id)]
-
-    return factory
-
-
 WEAK_ONLY_SUITE: dict[str, TeacherFactory] = {
-    f"{e}+weak-only": _weak_teacher_only(e) for e in WEAK_TEACHERS
+    f"{e}+weak-only": _weak_teachers(e, with_random=False) for e in WEAK_TEACHERS
 }
 """Opt-in entries: the weak suite's agent as the ONLY teacher, ``TLAC(env, teachers=[model])``,
-the simplest thing a user does. With no random teacher beside it the student stops at its
-teacher's level on Acrobot and LunarLander (results/user-envs-weak-only, docs/graduation.md)."""
+the simplest thing a user does. With no random teacher beside it the student stopped at its
+teacher's level on Acrobot and LunarLander (results/user-envs-weak-only); since the hand-over
+entropy bonus only LunarLander's does (results/user-envs-weak-handover, docs/graduation.md)."""
 
 SUITE: dict[str, TeacherFactory] = {
     "MountainCar-v0": _teachers_mountain_car,
