@@ -304,8 +304,9 @@ WEAK_ONLY_SUITE: dict[str, TeacherFactory] = {
 }
 """Opt-in entries: the weak suite's agent as the ONLY teacher, ``TLAC(env, teachers=[model])``,
 the simplest thing a user does. With no random teacher beside it the student stopped at its
-teacher's level on Acrobot and LunarLander (results/user-envs-weak-only); since the hand-over
-entropy bonus only LunarLander's does (results/user-envs-weak-handover, docs/graduation.md)."""
+teacher's level on Acrobot and LunarLander (results/user-envs-weak-only); with the hand-over
+entropy bonus and the copy weaned against the teacher alone, Acrobot's ends near PPO's level and
+LunarLander's just past its teacher (results/user-envs-weak-led-weaning, docs/graduation.md)."""
 
 SUITE: dict[str, TeacherFactory] = {
     "MountainCar-v0": _teachers_mountain_car,

@@ -426,6 +426,29 @@ def test_wean_imitation_scales_the_imitation_weight_by_one_minus_competence():
     assert model.update(model.collect(), 1.0)["train/distill_coef"] == pytest.approx(0.25)
 
 
+def test_the_copy_is_weaned_against_the_best_teacher_alone():
+    """The imitation fades as the student alone matches the best teacher ALONE (the mean of
+    its led episodes), not a per-step mix of teachers and student that can beat both: solo 5
+    over a floor of 0, teachers led alone at 4 (teacher 0) and 2 (teacher 1), a mix at 10 ->
+    weaning min(1, 5 / 4) = 1 where competence is 5 / 10. Before any led episode: competence."""
+    solo = SoloEpisodes(1, budget=0.2, seed=0, min_episodes=1, n_teachers=2, teacher_share=0.3)
+    solo.active[:] = True
+    solo.end(0, 0.0)  # the floor
+    solo.active[:] = False
+    solo.end(0, 10.0)  # a mixed assisted episode
+    assert solo.weaning == solo.competence == 0.0
+    solo.active[:] = True
+    solo.end(0, 10.0)  # solo mean 5
+    assert solo.weaning == solo.competence == 0.5
+    solo.active[:] = False
+    for teacher, episode_return in [(0, 3.0), (0, 5.0), (1, 2.0)]:
+        solo.leader[0] = teacher
+        solo.end(0, episode_return)
+    assert solo.competence == 0.5 and solo.weaning == 1.0
+    solo.solo_returns.extend([1.0] * 18)  # solo mean 28 / 20 = 1.4: 1.4 / 4 of the best teacher
+    assert solo.weaning == pytest.approx(0.35)
+
+
 def test_advice_buffer_wraps_and_samples_aligned_rows():
     buf = AdviceBuffer(capacity=5, obs_dim=1, advice_shape=(2,), advice_dtype=torch.int64)
     for start in range(0, 12, 4):

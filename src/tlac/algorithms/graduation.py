@@ -212,6 +212,19 @@ class SoloEpisodes:
         return competence(float(np.mean(self.solo_returns)), self.best_assisted, self.floor)
 
     @property
+    def weaning(self) -> float:
+        """Competence against the best teacher ALONE (the mean return of its led episodes),
+        the weight the imitation loses (``wean_imitation``); :attr:`competence` (against the
+        assisted episodes) while no teacher has led one."""
+        led = self.led_counts > 0
+        if not led.any():
+            return self.competence
+        if len(self.solo_returns) < self.min_episodes:
+            return 0.0
+        best_led = float(np.max(self.led_sums[led] / self.led_counts[led]))
+        return competence(float(np.mean(self.solo_returns)), best_led, self.floor)
+
+    @property
     def probability(self) -> float:
         return solo_probability(self.competence, self.budget)
 

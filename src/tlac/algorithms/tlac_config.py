@@ -198,24 +198,26 @@ class TLACConfig:
     """Divide training rewards by the running std of the discounted return (SB3's
     VecNormalize); logged returns stay raw."""
     wean_imitation: bool = False
-    """With solo episodes: multiply the imitation weight by ``1 - competence``, so that the
-    student stops copying its teachers as its solo episodes match their assisted returns, and
-    copies again if it falls back (Kickstarting's annealing, Schmitt et al. 2018, driven by
-    the student's measured competence rather than by time). On in the preset of a user's
-    environment (presets/default.yaml), with low_level_data agent: there the student's own
-    policy gradient takes over as the imitation fades, so it can learn past a weak teacher
+    """With solo episodes: multiply the imitation weight by ``1 - competence``, competence
+    measured against the best teacher alone (its teacher-led episodes; the assisted returns
+    until one is led: SoloEpisodes.weaning), so that the student stops copying its teachers as
+    its solo episodes match the best of them, and copies again if it falls back
+    (Kickstarting's annealing, Schmitt et al. 2018, driven by the student's measured
+    competence rather than by time). On in the preset of a user's environment
+    (presets/default.yaml), with low_level_data agent: there the student's own policy gradient
+    takes over as the imitation fades, so it can learn past a weak teacher
     (docs/graduation.md). With discrete actions the low level's entropy bonus then grows by
-    0.05 x competence (graduation.handover_entropy_coef): a copy of one deterministic teacher
-    leaves that policy gradient almost nothing to sample. Off in both variants: with the
+    0.05 x that competence (graduation.handover_entropy_coef): a copy of one deterministic
+    teacher leaves that policy gradient almost nothing to sample. Off in both variants: with the
     imitation term alone RMSprop normalises a slowly varying scale away."""
     teacher_episodes: float = 0.0
     """With solo episodes: the share of the other episodes that one teacher plays alone from
     start to end ("teacher-led"), the teacher picked by UCB1 over the returns of its earlier
     led episodes (tlac.algorithms.graduation.SoloEpisodes). They show what each teacher reaches
-    on its own (so competence is measured against the best teacher, not a mixture that never
-    reaches a sparse goal), and their rows train the high level like its own choices, so it
-    learns whom to follow where per-step mixing never completes a task (MountainCar). 0: none
-    (both variants); presets/default.yaml sets it (docs/graduation.md)."""
+    on its own (weaned imitation measures the student against the best of them), and their
+    rows train the high level like its own choices, so it learns whom to follow where per-step
+    mixing never completes a task (MountainCar). 0: none (both variants); presets/default.yaml
+    sets it (docs/graduation.md)."""
     kl_rows: str | None = None
     """Which rows give the low level's approximate KL for the target-KL stop: agent (where the
     agent acted: pi_low's own samples), all (every row, as a PPO built on SB3 computes it) or

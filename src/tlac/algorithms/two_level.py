@@ -301,7 +301,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         # imitated by the low level in proportion to the high level's trust in that teacher
         distill = self.distill_schedule(progress_remaining)
         if cfg.wean_imitation and self.solo is not None:
-            distill *= 1.0 - self.solo.competence
+            distill *= 1.0 - self.solo.weaning
         imitates = self.advice_buffer is not None and distill > 0
         silent = None
         if imitates:
@@ -506,7 +506,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         if not self._handover:
             return self._ent_coefs
         assert self.solo is not None
-        bonus = handover_entropy_coef(self.solo.competence)
+        bonus = handover_entropy_coef(self.solo.weaning)
         return self._ent_coefs + torch.tensor([bonus, 0.0])
 
     def _replay_plan(self, max_batches: int) -> ReplayPlan:
