@@ -424,6 +424,12 @@ def test_wean_imitation_scales_the_imitation_weight_by_one_minus_competence():
     model.solo.solo_returns.extend([0.75] * 5)  # solo mean 0.75 ...
     model.solo.floor, model.solo.best_assisted = 0.0, 1.0  # ... of the teachers' 1.0
     assert model.update(model.collect(), 1.0)["train/distill_coef"] == pytest.approx(0.25)
+    # once the teacher has led an episode alone (return 0.8), the weight is 1 - weaning
+    model.solo.led_sums[:], model.solo.led_counts[:] = 0.8, 1
+    rollout = model.collect()
+    weaning = model.solo.weaning
+    assert weaning != model.solo.competence
+    assert model.update(rollout, 1.0)["train/distill_coef"] == pytest.approx(1.0 - weaning)
 
 
 def test_the_copy_is_weaned_against_the_best_teacher_alone():
