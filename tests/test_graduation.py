@@ -429,7 +429,9 @@ def test_wean_imitation_scales_the_imitation_weight_by_one_minus_competence():
     rollout = model.collect()
     weaning = model.solo.weaning
     assert weaning != model.solo.competence
-    assert model.update(rollout, 1.0)["train/distill_coef"] == pytest.approx(1.0 - weaning)
+    logged = model.update(rollout, 1.0)
+    assert logged["train/distill_coef"] == pytest.approx(1.0 - weaning)
+    assert logged["train/weaning"] == weaning  # logged beside train/competence
 
 
 def test_the_copy_is_weaned_against_the_best_teacher_alone():

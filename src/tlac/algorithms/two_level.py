@@ -370,6 +370,8 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         if self.solo is not None:
             out["train/solo_probability"] = self.solo.probability
             out["train/competence"] = self.solo.competence
+            if cfg.wean_imitation:  # the competence the imitation is weaned by
+                out["train/weaning"] = self.solo.weaning
         if log.imitation:
             out["train/imitation_loss"] = float(torch.stack(log.imitation).mean())
             out["train/distill_coef"] = distill
