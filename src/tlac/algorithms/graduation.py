@@ -205,11 +205,16 @@ class SoloEpisodes:
         self.best_solo = -np.inf  # the best mean of a full window of solo returns so far
         self.solo_episodes = 0  # solo episodes ended so far
 
+    def _competence_against(self, reference: float) -> float:
+        """The recent solo returns' competence against ``reference`` (0 until ``min_episodes``
+        solo episodes have ended, or while the reference is not yet measured)."""
+        if len(self.solo_returns) < self.min_episodes or not np.isfinite(reference):
+            return 0.0
+        return competence(float(np.mean(self.solo_returns)), reference, self.floor)
+
     @property
     def competence(self) -> float:
-        if len(self.solo_returns) < self.min_episodes or not np.isfinite(self.best_assisted):
-            return 0.0
-        return competence(float(np.mean(self.solo_returns)), self.best_assisted, self.floor)
+        return self._competence_against(self.best_assisted)
 
     @property
     def weaning(self) -> float:
@@ -219,10 +224,7 @@ class SoloEpisodes:
         led = self.led_counts > 0
         if not led.any():
             return self.competence
-        if len(self.solo_returns) < self.min_episodes:
-            return 0.0
-        best_led = float(np.max(self.led_sums[led] / self.led_counts[led]))
-        return competence(float(np.mean(self.solo_returns)), best_led, self.floor)
+        return self._competence_against(float(np.max(self.led_sums[led] / self.led_counts[led])))
 
     @property
     def probability(self) -> float:
