@@ -1,14 +1,16 @@
 """TL-AC against what a user with teachers would pick instead: SB3 PPO alone, behaviour cloning
 of the best teacher then PPO fine-tuning ("BC then PPO"), and DAgger with the best teacher.
 
-Per case (an environment of benchmarks/user_envs.py with its teachers) and learner, every
+Per case (an environment of benchmarks/user_envs.py with its teachers, or a DoorKey teacher set
+of :data:`DOORKEY_CASES`) and learner, every
 ``--eval-every`` environment steps the student ALONE is scored greedily on the user suite's
 fresh evaluation episodes, and the training wall-clock so far is recorded (evaluation time
 excluded). The peers that need one teacher get the best one, chosen by its measured return
 (an oracle choice that TL-AC does not need):
 
 - ``tlac``: TL-AC's defaults with all of the case's teachers (``TLAC(env, teachers=...)``).
-- ``ppo``: SB3 PPO's defaults, no teachers.
+- ``ppo``: SB3 PPO's defaults, no teachers (on DoorKey: the domain's ``ppo`` preset, Table 5's
+  settings without the high level, as every DoorKey PPO of this project).
 - ``bc-ppo``: ``--demo-steps`` environment steps of the best teacher's demonstrations, behaviour
   cloning of SB3 PPO's ``MlpPolicy`` on them (maximum likelihood of the teacher's actions,
   ``BC_EPOCHS`` epochs of minibatches of 64), then SB3 PPO fine-tuning from those weights for
@@ -18,7 +20,7 @@ excluded). The peers that need one teacher get the best one, chosen by its measu
   linearly from 1 to 0 over ``DAGGER_RAMPDOWN`` rounds (the schedule of the ``imitation``
   package's DAgger), every visited state labelled with the teacher's action and added to the
   aggregated data set, then 320 minibatches of 64 drawn from it (as many gradient steps as SB3
-  PPO makes per rollout) on the same ``MlpPolicy``.
+  PPO's defaults make per rollout) on the same ``MlpPolicy`` (and optimiser) as ``ppo``'s.
 
 Reported per case: the student alone at 1e4 / 2e4 / 5e4 / 1e5 steps (mean +- std over seeds),
 and per learner the steps and training seconds until the student alone first reaches 90% of
@@ -27,6 +29,7 @@ seeds that reach it; "never" counts the others); one figure per case. Every run 
 under ``--out``/runs (rerunning skips it).
 
     .venv/bin/python benchmarks/peers.py --cases MountainCar-v0+weak Acrobot-v1+weak --seeds 0 1 2 3 4
+    .venv/bin/python benchmarks/peers.py --cases DoorKey+1optimal-2random DoorKey+L-R --seeds 0 1 2
 """
 
 from __future__ import annotations
@@ -55,6 +58,85 @@ DAGGER_RAMPDOWN = 15
 MINIBATCH = 64
 GRADIENT_STEPS_PER_ROUND = 320  # SB3 PPO's 10 epochs x 2048 / 64
 
+DOORKEY_CASES: dict[str, list[str]] = {
+    "DoorKey+1optimal-2random": ["optimal", "random", "random"],
+    "DoorKey+3noisy": ["ppo-noisy", "ppo-noisy", "ppo-noisy"],
+    "DoorKey+L-R": ["ppo-L", "ppo-R"],
+}
+"""DoorKey 7x7 cases (issue 45): the domain's named teachers (the planner and random ones, and
+those derived from the shipped PPO agent as the paper's studies use them), TL-AC with the
+domain's preset, PPO with its ``ppo`` preset."""
+CASES = [*user_envs.SUITE, *DOORKEY_CASES]
+
+
+# ------------------------------------------------------------------ the cases
+def is_doorkey(case: str) -> bool:
+    return case in DOORKEY_CASES
+
+
+def make_env(case: str) -> Any:
+    """A fresh environment of the case (DoorKey: the domain's, with its time limit)."""
+    if is_doorkey(case):
+        from tlac.domains import get_domain
+
+        return get_domain("doorkey").make_env()
+    import gymnasium as gym
+
+    return gym.make(user_envs.gym_id(case))
+
+
+def make_teachers(case: str, seed: int, env: Any) -> list[Any]:
+    """The case's teachers as batched tlac teachers (``.name``, ``.predict(batch)``)."""
+    if is_doorkey(case):
+        from tlac.domains import get_domain
+        from tlac.domains import make_teachers as domain_teachers
+
+        return domain_teachers(get_domain("doorkey"), DOORKEY_CASES[case], env, seed)
+    from tlac.teachers.base import as_teacher
+
+    space = env.action_space
+    return [as_teacher(t, space) for t in user_envs.SUITE[case](seed, space)]
+
+
+def evaluate(act_batch: Callable[[np.ndarray], Any], case: str, episodes: int) -> np.ndarray:
+    """The returns of ``act_batch`` over the case's fixed evaluation episodes (seeded
+    user_envs.EVAL_SEED, ...)."""
+    if not is_doorkey(case):
+        return user_envs.evaluate(act_batch, case, episodes)
+    from tlac.domains import get_domain
+    from tlac.evaluation import evaluate_policy
+
+    return evaluate_policy(act_batch, get_domain("doorkey"), episodes, user_envs.EVAL_SEED)
+
+
+def reference_returns(case: str, episodes: int) -> dict[str, Any]:
+    """Each teacher's own return and the uniformly random policy's."""
+    if not is_doorkey(case):
+        return user_envs.reference_returns(case, episodes)
+    env = make_env(case)
+    out: dict[str, Any] = {"env": case, "teachers": {}}
+    for teacher in make_teachers(case, 0, env):
+        out["teachers"][teacher.name] = float(evaluate(teacher.predict, case, episodes).mean())
+    rng = np.random.default_rng(12345)
+    uniform = lambda batch: rng.integers(env.action_space.n, size=len(batch))  # noqa: E731
+    out["random_policy"] = float(evaluate(uniform, case, episodes).mean())
+    return out
+
+
+def make_ppo(case: str, env: Any, seed: int) -> Any:
+    """SB3 PPO for the case: its defaults, or DoorKey's ``ppo`` preset."""
+    from stable_baselines3 import PPO
+
+    settings: dict[str, Any] = {}
+    if is_doorkey(case):
+        from tlac.algorithms.sb3_baselines import sb3_kwargs
+        from tlac.presets import load_preset
+
+        preset = load_preset("doorkey", "ppo")
+        preset.pop("n_envs")
+        settings = sb3_kwargs("ppo", preset)
+    return PPO("MlpPolicy", env, seed=seed, device="cpu", **settings)
+
 
 # ------------------------------------------------------------------ measuring
 class Curve:
@@ -73,7 +155,7 @@ class Curve:
     def record(self, steps: int, act_batch: Callable[[np.ndarray], Any]) -> None:
         """Score the student now (greedy) and move the next evaluation past ``steps``."""
         t0 = time.perf_counter()
-        score = float(user_envs.evaluate(act_batch, self.case, self.episodes).mean())
+        score = float(evaluate(act_batch, self.case, self.episodes).mean())
         self.eval_seconds += time.perf_counter() - t0
         train_seconds = time.perf_counter() - self.start - self.eval_seconds
         self.points.append([int(steps), score, round(train_seconds, 2)])
@@ -87,17 +169,15 @@ def greedy(policy: Any) -> Callable[[np.ndarray], Any]:
 
 
 def best_teacher_name(reference: dict[str, Any]) -> str:
-    """The teacher with the best measured return (``user_envs.reference_returns``): the
+    """The teacher with the best measured return (:func:`reference_returns`): the
     oracle choice of the single-teacher peers."""
     names = list(reference["teachers"])
     return names[int(np.argmax([reference["teachers"][n] for n in names]))]
 
 
-def best_teacher(case: str, space: Any, seed: int, name: str) -> Any:
+def best_teacher(case: str, env: Any, seed: int, name: str) -> Any:
     """The case's teacher called ``name``, as a batched tlac teacher."""
-    from tlac.teachers.base import as_teacher
-
-    for teacher in (as_teacher(t, space) for t in user_envs.SUITE[case](seed, space)):
+    for teacher in make_teachers(case, seed, env):
         if teacher.name == name:
             return teacher
     raise LookupError(f"{case}: no teacher named {name!r}")
@@ -119,12 +199,13 @@ def sb3_milestone_callback(curve: Curve, offset: int = 0) -> Any:
 
 
 def train_tlac(case: str, seed: int, steps: int, curve: Curve) -> None:
-    import gymnasium as gym
-
     from tlac import TLAC
 
-    env = gym.make(user_envs.gym_id(case))
-    model = TLAC(env, teachers=user_envs.SUITE[case](seed, env.action_space), seed=seed)
+    if is_doorkey(case):  # the named domain: its preset, its teachers by name
+        model = TLAC("doorkey", teachers=DOORKEY_CASES[case], seed=seed)
+    else:
+        env = make_env(case)
+        model = TLAC(env, teachers=user_envs.SUITE[case](seed, env.action_space), seed=seed)
 
     def after_update(m: Any) -> bool:
         if curve.due(m.num_timesteps):
@@ -135,10 +216,7 @@ def train_tlac(case: str, seed: int, steps: int, curve: Curve) -> None:
 
 
 def train_ppo(case: str, seed: int, steps: int, curve: Curve) -> None:
-    import gymnasium as gym
-    from stable_baselines3 import PPO
-
-    model = PPO("MlpPolicy", gym.make(user_envs.gym_id(case)), seed=seed, device="cpu")
+    model = make_ppo(case, make_env(case), seed)
     model.learn(steps, callback=sb3_milestone_callback(curve))
 
 
@@ -178,13 +256,10 @@ def clone_steps(policy: Any, obs: np.ndarray, actions: np.ndarray, n: int, rng: 
 def train_bc_ppo(
     case: str, seed: int, steps: int, curve: Curve, teacher_name: str, demo_steps: int
 ) -> None:
-    import gymnasium as gym
-    from stable_baselines3 import PPO
-
-    env = gym.make(user_envs.gym_id(case))
-    model = PPO("MlpPolicy", env, seed=seed, device="cpu")
-    teacher = best_teacher(case, env.action_space, seed, teacher_name)
-    obs, actions = demonstrations(gym.make(user_envs.gym_id(case)), teacher, demo_steps, seed)
+    env = make_env(case)
+    model = make_ppo(case, env, seed)
+    teacher = best_teacher(case, env, seed, teacher_name)
+    obs, actions = demonstrations(make_env(case), teacher, demo_steps, seed)
     rng = np.random.default_rng(seed)
     clone_steps(model.policy, obs, actions, BC_EPOCHS * len(obs) // MINIBATCH, rng)
     curve.record(demo_steps, greedy(model))
@@ -192,12 +267,9 @@ def train_bc_ppo(
 
 
 def train_dagger(case: str, seed: int, steps: int, curve: Curve, teacher_name: str) -> None:
-    import gymnasium as gym
-    from stable_baselines3 import PPO
-
-    env = gym.make(user_envs.gym_id(case))
-    policy = PPO("MlpPolicy", env, seed=seed, device="cpu").policy  # the same network as PPO's
-    teacher = best_teacher(case, env.action_space, seed, teacher_name)
+    env = make_env(case)
+    policy = make_ppo(case, env, seed).policy  # the same network and optimiser as PPO's
+    teacher = best_teacher(case, env, seed, teacher_name)
     rng = np.random.default_rng([seed, 0xDA])
     data_obs: list[np.ndarray] = []
     data_actions: list[np.ndarray] = []
@@ -260,9 +332,9 @@ def first_reach(curve: list[list[float]], threshold: float) -> tuple[float, floa
     return None
 
 
-def _mean_std(values: list[float]) -> str:
+def _mean_std(values: list[float], decimals: int = 1) -> str:
     values = [v for v in values if np.isfinite(v)]
-    return f"{np.mean(values):.1f} +- {np.std(values):.1f}" if values else "-"
+    return f"{np.mean(values):.{decimals}f} +- {np.std(values):.{decimals}f}" if values else "-"
 
 
 def case_table(case: str, runs: dict[str, list[dict]], random_policy: float) -> list[str]:
@@ -273,9 +345,10 @@ def case_table(case: str, runs: dict[str, list[dict]], random_policy: float) -> 
     }
     best = max(finals.values())
     threshold = random_policy + 0.9 * (best - random_policy)
+    d = 3 if is_doorkey(case) else 1  # DoorKey's returns lie in [0, 1]
     rows = []
     for learner, rs in runs.items():
-        cells = [_mean_std([score_at(r["curve"], m) for r in rs]) for m in MILESTONES]
+        cells = [_mean_std([score_at(r["curve"], m) for r in rs], d) for m in MILESTONES]
         reached = [first_reach(r["curve"], threshold) for r in rs]
         hit = [x for x in reached if x is not None]
         never = len(reached) - len(hit)
@@ -289,8 +362,8 @@ def case_table(case: str, runs: dict[str, list[dict]], random_policy: float) -> 
             + f" | {to_steps} | {to_secs} |"
         )
     rows.append(
-        f"| {case} | (90% of the way from random {random_policy:.1f} to the best final "
-        f"{best:.1f}: {threshold:.1f}) | | | | | | | |"
+        f"| {case} | (90% of the way from random {random_policy:.{d}f} to the best final "
+        f"{best:.{d}f}: {threshold:.{d}f}) | | | | | | | |"
     )
     return rows
 
@@ -347,7 +420,7 @@ def report(out: Path, cases: list[str]) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cases", nargs="+", required=True, choices=list(user_envs.SUITE))
+    parser.add_argument("--cases", nargs="+", required=True, choices=CASES)
     parser.add_argument("--learners", nargs="+", default=list(LEARNERS), choices=LEARNERS)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
     parser.add_argument("--steps", type=int, default=100_000)
@@ -366,7 +439,7 @@ def main() -> None:
     for case in args.cases:
         ref_path = args.out / "reference" / f"{case}.json"
         if not ref_path.exists():
-            ref_path.write_text(json.dumps(user_envs.reference_returns(case, 100), indent=1))
+            ref_path.write_text(json.dumps(reference_returns(case, 100), indent=1))
     best = {
         case: best_teacher_name(json.loads((args.out / "reference" / f"{case}.json").read_text()))
         for case in args.cases
