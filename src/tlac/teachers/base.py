@@ -279,9 +279,12 @@ def advice_actions(
     uniformly random ones says so (``informative_actions(obs)``: tlac's random, good / noisy,
     Gaussian-noise and partial teachers): the action of its informative part (its base's) and
     that part's weight, 0 where it says nothing (a random teacher, a partial one outside its
-    region). Any other teacher means the action it gives, with information 1. The Box
-    counterpart of :func:`advice_probabilities`: a good teacher's label is its base's action,
-    not one of its random draws.
+    region). Any other teacher (a plain function, an SB3 agent) is asked twice: where its two
+    answers agree it means that action, with information 1; where they differ it is
+    stochastic, its label is their mean and its information is measured
+    (:func:`self_agreement_information`), so a user's ``lambda obs: space.sample()`` means
+    nothing. The Box counterpart of :func:`advice_probabilities`: a good teacher's label is its
+    base's action, not one of its random draws.
 
     >>> box = gym.spaces.Box(-1.0, 1.0, (2,))
     >>> t = as_teacher(lambda obs: np.array([0.5, -0.5]), box)
@@ -292,7 +295,10 @@ def advice_actions(
     n = batch_len(obs)
     inner = _unwrapped(teacher)
     if not hasattr(inner, "informative_actions"):
-        return ask_teacher(teacher, obs, action_space), np.ones(n)
+        first = ask_teacher(teacher, obs, action_space)
+        second = ask_teacher(teacher, obs, action_space)
+        information = self_agreement_information(first, second, action_space)
+        return (first + second) / 2, information
     actions, information = _named_errors(
         teacher, lambda: inner.informative_actions(obs), "informative_actions"
     )
@@ -303,3 +309,28 @@ def advice_actions(
             f"{information.shape} (expected ({n},) values in [0, 1])"
         )
     return check_actions(teacher.name, actions, action_space, n), information
+
+
+def self_agreement_information(
+    first: np.ndarray, second: np.ndarray, action_space: gym.spaces.Box
+) -> np.ndarray:
+    """``(n,)``: how much a teacher's Box advice means, from two answers for the same states.
+    Rows where the answers are equal (a deterministic teacher) get 1. The differing rows share
+    ``1 - mean ||a1 - a2||^2 / E ||u1 - u2||^2``, clipped to [0, 1], with ``u1, u2`` independent
+    uniform draws from the action box (``E = 2 * sum (high - low)^2 / 12``): 0 for a uniformly
+    random teacher, ``1 - sigma^2 / var(u)`` for one that adds unclipped Gaussian noise of
+    standard deviation ``sigma``. An unbounded box has no uniform draw to compare with: 1.
+
+    >>> box = gym.spaces.Box(-1.0, 1.0, (1,))
+    >>> self_agreement_information(np.array([[0.5], [0.2]]), np.array([[0.5], [0.4]]), box).round(2)
+    array([1.  , 0.94])
+    """
+    gap = ((first - second) ** 2).reshape(len(first), -1).sum(axis=1)
+    differ = gap > 0
+    information = np.ones(len(first))
+    width = (action_space.high - action_space.low).astype(np.float64)
+    if not differ.any() or not np.isfinite(width).all():
+        return information
+    uniform_gap = 2.0 * float(np.sum(width**2)) / 12.0
+    information[differ] = np.clip(1.0 - gap[differ].mean() / uniform_gap, 0.0, 1.0)
+    return information
