@@ -23,6 +23,7 @@ import pytest
 import torch
 
 from tlac import TLAC
+from tlac.recording import platform_record
 from tlac.run import RunSpec, train_run
 
 DOORKEY_GOLDEN = {
@@ -49,8 +50,14 @@ def _random(space: gym.Space, seed: int):
 USER_GOLDEN = {
     # (environment, preset): after 3000 steps (two rollouts of 2048)
     ("CartPole-v1", "auto"): ("739d624e244385e4", "0eec05f4ceaf1c77"),
-    ("Pendulum-v1", "auto"): ("2ec553275203781d", "6407069ff4b36ee7"),
+    ("Pendulum-v1", "auto"): ("7cc09546581b8357",),
 }
+# Pendulum's changed on purpose on 2026-11-27 (a Box teacher that does not say what it means is
+# asked twice and means less where its answers differ: the random function above now means
+# nothing; docs/graduation.md). It was Intel Xeon 2ec553275203781d, AMD EPYC 6407069ff4b36ee7;
+# only the AMD EPYC digest of today's behaviour is known, so another machine type skips it
+# (naming itself) until its digest is added beside this one.
+RECORDED_ON = {("Pendulum-v1", "auto"): ("AMD EPYC",)}
 
 
 def _user_run_digest(env_id: str, preset: str) -> str:
@@ -79,6 +86,10 @@ def test_default_variant_is_pinned_on_doorkey(tmp_path, teachers):
 
 @pytest.mark.parametrize(("env_id", "preset"), list(USER_GOLDEN))
 def test_the_default_is_pinned_on_a_users_environment(env_id, preset):
+    cpu = platform_record().get("cpu", "unknown")
+    machines = RECORDED_ON.get((env_id, preset))
+    if machines is not None and cpu not in machines:
+        pytest.skip(f"{env_id}'s digest is recorded on {machines} only; this is {cpu!r}")
     assert _user_run_digest(env_id, preset) in USER_GOLDEN[(env_id, preset)]
 
 

@@ -28,7 +28,7 @@ from tlac.errors import ConfigError, TeacherError
 from tlac.evaluation import evaluate_student
 from tlac.presets import load_preset
 from tlac.run import RunSpec, train_run
-from tlac.teachers.base import advice_actions, as_teacher
+from tlac.teachers.base import advice_actions, as_teacher, self_agreement_information
 from tlac.teachers.wrappers import (
     GaussianNoiseTeacher,
     MixedRandomTeacher,
@@ -739,6 +739,34 @@ def test_box_teachers_say_what_they_mean():
     )
     # weighted 0.15, 0, 0.2 (sum 0.35), rescaled to keep the total trust 0.8
     np.testing.assert_allclose(reweighted[0], [0.15 * 0.8 / 0.35, 0.0, 0.2 * 0.8 / 0.35], rtol=1e-6)
+
+
+def test_a_box_function_that_disagrees_with_itself_means_less():
+    """A Box teacher that does not say what it means is asked twice. Hand-checked: equal answers
+    mean information 1; the differing rows share 1 - mean gap / (2 * width^2 / 12). A user's
+    uniformly random function then means (almost) nothing, one that adds noise its mean answer
+    with the information of that noise, a deterministic one exactly what it says."""
+    box = gym.spaces.Box(-2.0, 2.0, (1,), np.float32)
+    first, second = np.array([[1.0], [0.0], [0.5]]), np.array([[1.0], [1.0], [-0.5]])
+    # rows 2 and 3 differ by 1 and 1: 1 - 1 / (2 * 16 / 12) = 0.625
+    got = self_agreement_information(first, second, box)
+    np.testing.assert_allclose(got, [1.0, 0.625, 0.625])
+    unbounded = gym.spaces.Box(-np.inf, np.inf, (1,), np.float32)
+    np.testing.assert_allclose(self_agreement_information(first, second, unbounded), [1, 1, 1])
+
+    obs = np.zeros((4000, 3))
+    box.seed(0)
+    _, information = advice_actions(as_teacher(lambda o: box.sample(), box), obs, box)
+    assert information.max() < 0.05
+    rng = np.random.default_rng(0)
+    noisy = as_teacher(lambda o: np.float32([np.clip(0.5 + rng.normal(0.0, 0.5), -2, 2)]), box)
+    actions, information = advice_actions(noisy, obs, box)
+    # E gap = 2 * 0.5^2 = 0.5 against 2 * 16 / 12: information 1 - 0.1875
+    assert information.mean() == pytest.approx(0.8125, abs=0.02)
+    assert float(actions.mean()) == pytest.approx(0.5, abs=0.02)
+    fixed = as_teacher(lambda o: np.float32([0.3]), box)
+    actions, information = advice_actions(fixed, obs[:2], box)
+    assert actions.tolist() == [[np.float32(0.3)]] * 2 and information.tolist() == [1.0, 1.0]
 
 
 def test_a_random_teachers_trust_moves_to_the_teacher_that_knows():
