@@ -368,6 +368,45 @@ def case_table(case: str, runs: dict[str, list[dict]], random_policy: float) -> 
     return rows
 
 
+def time_to_ninety(runs: list[dict], threshold: float) -> tuple[int, float]:
+    """(seeds that never reach ``threshold``, mean training seconds of those that do; inf if
+    none): smaller is sooner, a learner that always gets there before one that sometimes never
+    does."""
+    hit = [h[1] for h in (first_reach(r["curve"], threshold) for r in runs) if h is not None]
+    return len(runs) - len(hit), float(np.mean(hit)) if hit else float("inf")
+
+
+def acceptance_row(case: str, runs: dict[str, list[dict]], random_policy: float) -> str:
+    """Issue 45's acceptance for one case: TL-AC's student alone at the end (seed mean) at or
+    above every peer's; TL-AC at 90% of the best final score sooner in training seconds than PPO
+    alone and BC then PPO; and within twice DAgger's seconds (:func:`time_to_ninety`)."""
+    finals = {
+        lr: float(np.mean([score_at(r["curve"], r["steps"]) for r in rs]))
+        for lr, rs in runs.items()
+    }
+    threshold = random_policy + 0.9 * (max(finals.values()) - random_policy)
+    d = 3 if is_doorkey(case) else 1
+    below = [f"{lr} {finals[lr]:.{d}f}" for lr in finals if finals[lr] > finals["tlac"]]
+    cells = [f"yes ({finals['tlac']:.{d}f})" if not below else "no: " + ", ".join(below)]
+    ours = time_to_ninety(runs["tlac"], threshold)
+
+    def shown(key: tuple[int, float]) -> str:
+        seconds = "never" if not np.isfinite(key[1]) else f"{key[1]:.0f} s"
+        return seconds + (f", {key[0]} never" if key[0] and np.isfinite(key[1]) else "")
+
+    for peer, factor in (("ppo", 1.0), ("bc-ppo", 1.0), ("dagger", 2.0)):
+        if peer not in runs:
+            cells.append("-")
+            continue
+        theirs = time_to_ninety(runs[peer], threshold)
+        sooner = ours[1] < theirs[1] if factor == 1.0 else ours[1] <= factor * theirs[1]
+        ok = np.isfinite(ours[1]) and (
+            ours[0] < theirs[0] or (ours[0] == theirs[0] and bool(sooner))
+        )
+        cells.append(f"{'yes' if ok else 'no'} ({shown(ours)} against {shown(theirs)})")
+    return f"| {case} | " + " | ".join(cells) + " |"
+
+
 def load_runs(out: Path, case: str) -> dict[str, list[dict]]:
     runs: dict[str, list[dict]] = {}
     for learner in LEARNERS:
@@ -405,6 +444,11 @@ def report(out: Path, cases: list[str]) -> str:
         "| case | learner | seeds | 1e4 | 2e4 | 5e4 | 1e5 | steps to 90% | training seconds to 90% |\n"
         "|---|---|---|---|---|---|---|---|---|"
     )
+    verdicts = [
+        "| case | student alone at the end >= every peer | first to 90% (training seconds), "
+        "against PPO alone | against BC then PPO | within 2x DAgger |",
+        "|---|---|---|---|---|",
+    ]
     lines = [header]
     for case in cases:
         runs = load_runs(out, case)
@@ -414,8 +458,11 @@ def report(out: Path, cases: list[str]) -> str:
             "random_policy"
         ]
         lines += case_table(case, runs, random_policy)
+        if "tlac" in runs and len(runs) > 1:
+            verdicts.append(acceptance_row(case, runs, random_policy))
         plot_case(out, case, runs, random_policy)
-    return "\n".join(lines) + "\n"
+    acceptance = "\n\nIssue 45's acceptance, per case (seed means):\n\n" + "\n".join(verdicts)
+    return "\n".join(lines) + (acceptance if len(verdicts) > 2 else "") + "\n"
 
 
 def main() -> None:

@@ -69,3 +69,28 @@ def test_doorkey_cases_use_the_domains_teachers_preset_and_evaluation():
     ppo = peers.make_ppo(case, env, 0)  # the domain's ppo preset (Table 5), not SB3's defaults
     assert (ppo.n_steps, ppo.n_epochs, ppo.batch_size) == (16, 5, 16)
     assert peers.make_ppo("CartPole-v1", gym.make("CartPole-v1"), 0).n_steps == 2048
+
+
+def test_the_acceptance_verdicts_of_one_case():
+    """Hand-checked: random -500, finals tlac -80, ppo -90, bc-ppo -85, dagger -79 (best), so
+    90% is -500 + 0.9 * 421 = -121.1. TL-AC reaches it at 20 s; PPO never in one of two seeds;
+    BC then PPO at 10 s (sooner); DAgger at 12 s (TL-AC within 2x: 20 <= 24)."""
+
+    def run(final: float, seconds: float | None) -> dict:
+        early = [[10000, -400.0, 1.0]]
+        reach = [] if seconds is None else [[20000, -100.0, seconds]]
+        return {"steps": 30000, "curve": early + reach + [[30000, final, 30.0]]}
+
+    runs = {
+        "tlac": [run(-80.0, 20.0), run(-80.0, 20.0)],
+        "ppo": [run(-90.0, 40.0), run(-130.0, None)],
+        "bc-ppo": [run(-85.0, 10.0), run(-85.0, 10.0)],
+        "dagger": [run(-79.0, 12.0), run(-79.0, 12.0)],
+    }
+    row = peers.acceptance_row("X", runs, random_policy=-500.0)
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[1] == "no: dagger -79.0"
+    assert cells[2].startswith("yes (20 s against 40 s, 1 never)")
+    assert cells[3].startswith("no (20 s against 10 s)")
+    assert cells[4].startswith("yes (20 s against 12 s)")
+    assert peers.time_to_ninety(runs["ppo"], -121.1) == (1, 40.0)
