@@ -25,8 +25,9 @@ excluded). The peers that need one teacher get the best one, chosen by its measu
 Reported per case: the student alone at 1e4 / 2e4 / 5e4 / 1e5 steps (mean +- std over seeds),
 and per learner the steps and training seconds until the student alone first reaches 90% of
 the way from the random policy to the best final score among the learners (mean over the
-seeds that reach it; "never" counts the others); one figure per case. Every run is a JSON file
-under ``--out``/runs (rerunning skips it).
+seeds that reach it; "never" counts the others); one figure per case; and issue 45's
+acceptance per case (:func:`acceptance_row`). Every run is a JSON file under ``--out``/runs
+(rerunning skips it).
 
     .venv/bin/python benchmarks/peers.py --cases MountainCar-v0+weak Acrobot-v1+weak --seeds 0 1 2 3 4
     .venv/bin/python benchmarks/peers.py --cases DoorKey+1optimal-2random DoorKey+L-R --seeds 0 1 2
