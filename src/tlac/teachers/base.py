@@ -320,6 +320,8 @@ def self_agreement_information(
     uniform draws from the action box (``E = 2 * sum (high - low)^2 / 12``): 0 for a uniformly
     random teacher, ``1 - sigma^2 / var(u)`` for one that adds unclipped Gaussian noise of
     standard deviation ``sigma``. An unbounded box has no uniform draw to compare with: 1.
+    Answers drawn from a few values (a teacher choosing among fixed torques) can coincide by
+    chance, and rows where they do read as meant.
 
     >>> box = gym.spaces.Box(-1.0, 1.0, (1,))
     >>> self_agreement_information(np.array([[0.5], [0.2]]), np.array([[0.5], [0.4]]), box).round(2)
