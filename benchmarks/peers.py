@@ -338,14 +338,22 @@ def _mean_std(values: list[float], decimals: int = 1) -> str:
     return f"{np.mean(values):.{decimals}f} +- {np.std(values):.{decimals}f}" if values else "-"
 
 
-def case_table(case: str, runs: dict[str, list[dict]], random_policy: float) -> list[str]:
-    """The rows of one case: student alone at the milestones, steps/seconds to 90%."""
+def finals_and_threshold(
+    runs: dict[str, list[dict]], random_policy: float
+) -> tuple[dict[str, float], float]:
+    """Each learner's student alone at the end (seed mean), and 90% of the way from the random
+    policy to the best of them."""
     finals = {
         lr: float(np.mean([score_at(r["curve"], r["steps"]) for r in rs]))
         for lr, rs in runs.items()
     }
+    return finals, random_policy + 0.9 * (max(finals.values()) - random_policy)
+
+
+def case_table(case: str, runs: dict[str, list[dict]], random_policy: float) -> list[str]:
+    """The rows of one case: student alone at the milestones, steps/seconds to 90%."""
+    finals, threshold = finals_and_threshold(runs, random_policy)
     best = max(finals.values())
-    threshold = random_policy + 0.9 * (best - random_policy)
     d = 3 if is_doorkey(case) else 1  # DoorKey's returns lie in [0, 1]
     rows = []
     for learner, rs in runs.items():
@@ -381,11 +389,7 @@ def acceptance_row(case: str, runs: dict[str, list[dict]], random_policy: float)
     """Issue 45's acceptance for one case: TL-AC's student alone at the end (seed mean) at or
     above every peer's; TL-AC at 90% of the best final score sooner in training seconds than PPO
     alone and BC then PPO; and within twice DAgger's seconds (:func:`time_to_ninety`)."""
-    finals = {
-        lr: float(np.mean([score_at(r["curve"], r["steps"]) for r in rs]))
-        for lr, rs in runs.items()
-    }
-    threshold = random_policy + 0.9 * (max(finals.values()) - random_policy)
+    finals, threshold = finals_and_threshold(runs, random_policy)
     d = 3 if is_doorkey(case) else 1
     below = [f"{lr} {finals[lr]:.{d}f}" for lr in finals if finals[lr] > finals["tlac"]]
     cells = [f"yes ({finals['tlac']:.{d}f})" if not below else "no: " + ", ".join(below)]
