@@ -22,6 +22,10 @@ excluded). The peers that need one teacher get the best one, chosen by its measu
   aggregated data set, then 320 minibatches of 64 drawn from it (as many gradient steps as SB3
   PPO's defaults make per rollout) on the same ``MlpPolicy`` (and optimiser) as ``ppo``'s.
 
+With ``--onehot-peers`` (DoorKey only) the peers' networks read MiniGrid's indices one-hot
+encoded, as TL-AC's do (:class:`OneHotObs`, tlac.algorithms.encoding), instead of the raw indices
+that SB3's ``MlpPolicy`` reads; the teachers still see the raw observations.
+
 Reported per case: the student alone at 1e4 / 2e4 / 5e4 / 1e5 steps (mean +- std over seeds),
 and per learner the steps and training seconds until the student alone first reaches 90% of
 the way from the random policy to the best final score among the learners (mean over the
@@ -46,6 +50,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -81,9 +86,41 @@ def make_env(case: str) -> Any:
         from tlac.domains import get_domain
 
         return get_domain("doorkey").make_env()
-    import gymnasium as gym
-
     return gym.make(user_envs.gym_id(case))
+
+
+Encode = Callable[[np.ndarray], np.ndarray]
+
+
+def peer_view(case: str, onehot: bool) -> Encode | None:
+    """What the peers' networks read of a batch of raw observations: None for the raw
+    observations, or (``onehot``) the one-hot encoding of TL-AC's ``obs_encoding: auto``."""
+    if not onehot:
+        return None
+    from tlac.algorithms.encoding import make_encoder
+
+    encoder = make_encoder("onehot", make_env(case).observation_space)
+    assert encoder is not None
+    return lambda batch: encoder.numpy(np.asarray(batch).reshape(len(batch), -1))
+
+
+def peer_env(env: Any, view: Encode | None) -> Any:
+    """The environment a peer's SB3 model is built on and trained in: ``env``, its
+    observations as ``view`` makes them (:class:`OneHotObs`)."""
+    return env if view is None else OneHotObs(env, view)
+
+
+class OneHotObs(gym.ObservationWrapper):
+    """``env`` whose observations are ``view`` of its raw ones (a flat float32 Box)."""
+
+    def __init__(self, env: Any, view: Encode):
+        super().__init__(env)
+        self.view = view
+        width = view(env.observation_space.sample()[None]).shape[1]
+        self.observation_space = gym.spaces.Box(0.0, 1.0, (width,), np.float32)
+
+    def observation(self, observation: Any) -> np.ndarray:
+        return self.view(np.asarray(observation)[None])[0]
 
 
 def make_teachers(case: str, seed: int, env: Any) -> list[Any]:
@@ -164,9 +201,12 @@ class Curve:
             self.next += self.every
 
 
-def greedy(policy: Any) -> Callable[[np.ndarray], Any]:
-    """The greedy action of an SB3 policy (or model) for a batch of observations."""
-    return lambda batch: policy.predict(batch, deterministic=True)[0]
+def greedy(policy: Any, view: Encode | None = None) -> Callable[[np.ndarray], Any]:
+    """The greedy action of an SB3 policy (or model) for a batch of raw observations (that it
+    reads as ``view`` makes them, if given)."""
+    if view is None:
+        return lambda batch: policy.predict(batch, deterministic=True)[0]
+    return lambda batch: policy.predict(view(batch), deterministic=True)[0]
 
 
 def best_teacher_name(reference: dict[str, Any]) -> str:
@@ -185,15 +225,16 @@ def best_teacher(case: str, env: Any, seed: int, name: str) -> Any:
 
 
 # ------------------------------------------------------------------ the learners
-def sb3_milestone_callback(curve: Curve, offset: int = 0) -> Any:
-    """An SB3 callback that records ``curve`` when due (``offset``: steps spent before PPO)."""
+def sb3_milestone_callback(curve: Curve, offset: int = 0, view: Encode | None = None) -> Any:
+    """An SB3 callback that records ``curve`` when due (``offset``: steps spent before PPO;
+    ``view``: what the model reads of raw observations)."""
     from stable_baselines3.common.callbacks import BaseCallback
 
     class Milestones(BaseCallback):
         def _on_step(self) -> bool:
             steps = offset + self.num_timesteps
             if curve.due(steps):
-                curve.record(steps, greedy(self.model))
+                curve.record(steps, greedy(self.model, view))
             return True
 
     return Milestones()
@@ -216,9 +257,9 @@ def train_tlac(case: str, seed: int, steps: int, curve: Curve) -> None:
     model.learn(steps, callback=after_update)
 
 
-def train_ppo(case: str, seed: int, steps: int, curve: Curve) -> None:
-    model = make_ppo(case, make_env(case), seed)
-    model.learn(steps, callback=sb3_milestone_callback(curve))
+def train_ppo(case: str, seed: int, steps: int, curve: Curve, view: Encode | None) -> None:
+    model = make_ppo(case, peer_env(make_env(case), view), seed)
+    model.learn(steps, callback=sb3_milestone_callback(curve, view=view))
 
 
 def demonstrations(env: Any, teacher: Any, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -235,9 +276,17 @@ def demonstrations(env: Any, teacher: Any, n: int, seed: int) -> tuple[np.ndarra
     return np.asarray(obs_rows), np.asarray(action_rows)
 
 
-def clone_steps(policy: Any, obs: np.ndarray, actions: np.ndarray, n: int, rng: Any) -> None:
+def clone_steps(
+    policy: Any,
+    obs: np.ndarray,
+    actions: np.ndarray,
+    n: int,
+    rng: Any,
+    view: Encode | None = None,
+) -> None:
     """``n`` gradient steps of maximum likelihood of ``actions`` under the SB3 policy's actor
-    (minibatches of MINIBATCH rows drawn uniformly), with the policy's own optimizer."""
+    (minibatches of MINIBATCH rows drawn uniformly, read as ``view`` makes them), with the
+    policy's own optimizer."""
     import torch
 
     obs_t = torch.as_tensor(obs, dtype=torch.float32)
@@ -245,7 +294,8 @@ def clone_steps(policy: Any, obs: np.ndarray, actions: np.ndarray, n: int, rng: 
     policy.set_training_mode(True)
     for _ in range(n):
         idx = torch.as_tensor(rng.integers(len(obs), size=MINIBATCH))
-        _, log_prob, _ = policy.evaluate_actions(obs_t[idx], actions_t[idx])
+        rows = obs_t[idx] if view is None else torch.as_tensor(view(obs[idx.numpy()]))
+        _, log_prob, _ = policy.evaluate_actions(rows, actions_t[idx])
         loss = -log_prob.mean()
         policy.optimizer.zero_grad()
         loss.backward()
@@ -255,21 +305,29 @@ def clone_steps(policy: Any, obs: np.ndarray, actions: np.ndarray, n: int, rng: 
 
 
 def train_bc_ppo(
-    case: str, seed: int, steps: int, curve: Curve, teacher_name: str, demo_steps: int
+    case: str,
+    seed: int,
+    steps: int,
+    curve: Curve,
+    teacher_name: str,
+    demo_steps: int,
+    view: Encode | None,
 ) -> None:
     env = make_env(case)
-    model = make_ppo(case, env, seed)
+    model = make_ppo(case, peer_env(env, view), seed)
     teacher = best_teacher(case, env, seed, teacher_name)
     obs, actions = demonstrations(make_env(case), teacher, demo_steps, seed)
     rng = np.random.default_rng(seed)
-    clone_steps(model.policy, obs, actions, BC_EPOCHS * len(obs) // MINIBATCH, rng)
-    curve.record(demo_steps, greedy(model))
-    model.learn(steps - demo_steps, callback=sb3_milestone_callback(curve, demo_steps))
+    clone_steps(model.policy, obs, actions, BC_EPOCHS * len(obs) // MINIBATCH, rng, view)
+    curve.record(demo_steps, greedy(model, view))
+    model.learn(steps - demo_steps, callback=sb3_milestone_callback(curve, demo_steps, view))
 
 
-def train_dagger(case: str, seed: int, steps: int, curve: Curve, teacher_name: str) -> None:
+def train_dagger(
+    case: str, seed: int, steps: int, curve: Curve, teacher_name: str, view: Encode | None
+) -> None:
     env = make_env(case)
-    policy = make_ppo(case, env, seed).policy  # the same network and optimiser as PPO's
+    policy = make_ppo(case, peer_env(env, view), seed).policy  # PPO's network and optimiser
     teacher = best_teacher(case, env, seed, teacher_name)
     rng = np.random.default_rng([seed, 0xDA])
     data_obs: list[np.ndarray] = []
@@ -282,17 +340,26 @@ def train_dagger(case: str, seed: int, steps: int, curve: Curve, teacher_name: s
             label = np.asarray(teacher.predict(obs[None]))[0]
             data_obs.append(obs)
             data_actions.append(label)
-            act = label if rng.random() < beta else policy.predict(obs, deterministic=False)[0]
+            if rng.random() < beta:
+                act = label
+            else:
+                seen = obs if view is None else view(obs[None])[0]
+                act = policy.predict(seen, deterministic=False)[0]
             obs, _, terminated, truncated, _ = env.step(act)
             if terminated or truncated:
                 obs, _ = env.reset()
             done_steps += 1
         clone_steps(
-            policy, np.asarray(data_obs), np.asarray(data_actions), GRADIENT_STEPS_PER_ROUND, rng
+            policy,
+            np.asarray(data_obs),
+            np.asarray(data_actions),
+            GRADIENT_STEPS_PER_ROUND,
+            rng,
+            view,
         )
         round_index += 1
         if curve.due(done_steps) or done_steps >= steps:
-            curve.record(done_steps, greedy(policy))
+            curve.record(done_steps, greedy(policy, view))
 
 
 def train_one(
@@ -304,17 +371,20 @@ def train_one(
     torch.manual_seed(seed)
     steps = args.steps
     curve = Curve(case, args.eval_every, args.episodes)
+    view = peer_view(case, args.onehot_peers)
     if learner == "tlac":
         train_tlac(case, seed, steps, curve)
     elif learner == "ppo":
-        train_ppo(case, seed, steps, curve)
+        train_ppo(case, seed, steps, curve, view)
     elif learner == "bc-ppo":
-        train_bc_ppo(case, seed, steps, curve, teacher_name, args.demo_steps)
+        train_bc_ppo(case, seed, steps, curve, teacher_name, args.demo_steps, view)
     else:
-        train_dagger(case, seed, steps, curve, teacher_name)
+        train_dagger(case, seed, steps, curve, teacher_name, view)
     result = {"case": case, "learner": learner, "seed": seed, "steps": steps, "curve": curve.points}
     if learner in ("bc-ppo", "dagger"):
         result["teacher"] = teacher_name
+    if learner != "tlac" and view is not None:
+        result["observations"] = "onehot"
     return result
 
 
@@ -479,12 +549,22 @@ def main() -> None:
     parser.add_argument("--eval-every", type=int, default=10_000)
     parser.add_argument("--episodes", type=int, default=user_envs.EVAL_EPISODES)
     parser.add_argument("--demo-steps", type=int, default=10_000, help="bc-ppo's demonstrations")
+    parser.add_argument(
+        "--onehot-peers",
+        action="store_true",
+        help="DoorKey only: the peers' networks read the observations one-hot encoded, as TL-AC's",
+    )
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--out", type=Path, default=Path("results/peers"))
     args = parser.parse_args()
     if not 0 < args.demo_steps < args.steps:
         parser.error(
             f"--demo-steps must be between 0 and --steps ({args.steps}), got {args.demo_steps}"
+        )
+    if args.onehot_peers and not all(is_doorkey(c) for c in args.cases):
+        parser.error(
+            "--onehot-peers applies to DoorKey cases only (integer observations), got "
+            + " ".join(c for c in args.cases if not is_doorkey(c))
         )
     (args.out / "runs").mkdir(parents=True, exist_ok=True)
     (args.out / "reference").mkdir(parents=True, exist_ok=True)

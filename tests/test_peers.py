@@ -94,3 +94,34 @@ def test_the_acceptance_verdicts_of_one_case():
     assert cells[3].startswith("no (20 s against 10 s)")
     assert cells[4].startswith("yes (20 s against 12 s)")
     assert peers.time_to_ninety(runs["ppo"], -121.1) == (1, 40.0)
+
+
+def test_onehot_peers_read_what_tlacs_networks_read_and_clone_through_it():
+    """--onehot-peers: the peers' networks read DoorKey's observations as TL-AC's encoder makes
+    them (1029 indicators, 147 of them on), the environment they train in gives the same
+    rows, and cloning through the view still copies a teacher."""
+    from stable_baselines3 import PPO
+
+    from tlac import TLAC
+
+    case = "DoorKey+1optimal-2random"
+    view = peers.peer_view(case, onehot=True)
+    assert peers.peer_view(case, onehot=False) is None
+    raw_env = peers.make_env(case)
+    obs, _ = raw_env.reset(seed=3)
+    rows = view(np.asarray(obs)[None])
+    tlac_encoder = TLAC("doorkey", teachers=["random"], seed=0).encoder
+    np.testing.assert_array_equal(rows, tlac_encoder.numpy(np.asarray(obs, np.float32)[None]))
+    assert rows.shape == (1, 1029) and rows.sum() == 147
+    wrapped = peers.peer_env(peers.make_env(case), view)
+    wrapped_obs, _ = wrapped.reset(seed=3)
+    np.testing.assert_array_equal(wrapped_obs, rows[0])
+
+    class Forward:  # DoorKey's action 2: move forward
+        def predict(self, batch):
+            return np.full(len(batch), 2, dtype=np.int64)
+
+    demo_obs, actions = peers.demonstrations(raw_env, Forward(), 200, seed=0)
+    policy = PPO("MlpPolicy", wrapped, seed=0, device="cpu").policy
+    peers.clone_steps(policy, demo_obs, actions, 200, np.random.default_rng(0), view)
+    assert (policy.predict(view(demo_obs), deterministic=True)[0] == 2).all()
