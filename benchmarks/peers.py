@@ -289,13 +289,16 @@ def clone_steps(
     policy's own optimizer."""
     import torch
 
-    obs_t = torch.as_tensor(obs, dtype=torch.float32)
+    if view is None:  # the whole data set as one tensor, indexed per minibatch
+        obs_t = torch.as_tensor(obs, dtype=torch.float32)
+        rows_of = lambda idx: obs_t[idx]  # noqa: E731
+    else:  # only the minibatch's rows are encoded
+        rows_of = lambda idx: torch.as_tensor(view(obs[idx.numpy()]))  # noqa: E731
     actions_t = torch.as_tensor(actions)
     policy.set_training_mode(True)
     for _ in range(n):
         idx = torch.as_tensor(rng.integers(len(obs), size=MINIBATCH))
-        rows = obs_t[idx] if view is None else torch.as_tensor(view(obs[idx.numpy()]))
-        _, log_prob, _ = policy.evaluate_actions(rows, actions_t[idx])
+        _, log_prob, _ = policy.evaluate_actions(rows_of(idx), actions_t[idx])
         loss = -log_prob.mean()
         policy.optimizer.zero_grad()
         loss.backward()
