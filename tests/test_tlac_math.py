@@ -137,16 +137,6 @@ def test_stacked_mlp_members_equal_their_own_mlps_even_with_different_widths():
     np.testing.assert_allclose(
         net.forward_numpy(x.numpy())[0], out.detach().numpy(), rtol=1e-5, atol=1e-6
     )
-    # one member alone computes the same output and last hidden layer, with gradient only there
-    _, hidden = net(x)
-    for m in range(3):
-        member_out, member_hidden = net.forward_member(x, m)
-        torch.testing.assert_close(member_out, out[m])
-        torch.testing.assert_close(member_hidden, hidden[m])
-    net.zero_grad()
-    net.forward_member(x, 1)[0].sum().backward()
-    grad = net.weights[0].grad
-    assert float(grad[1].abs().sum()) > 0 and float(grad[[0, 2]].abs().sum()) == 0.0
     # a gradient step leaves the padded weights at exactly zero
     opt = RMSpropTFLike(net.parameters(), lr=0.1)
     net(x)[0].sum().backward()
@@ -285,21 +275,51 @@ def test_foreach_rmsprop_and_clip_are_sb3s_and_torchs_bit_for_bit():
     assert [sb3[i]["step"] for i in sb3] == [ours[i]["step"] for i in ours]
 
 
-def test_member_leaves_fold_the_gradient_autograd_gives_a_member():
-    """StackedMLP.forward_member_leaves + fold_member_grads: the stack's gradient is the one
-    autograd computes through forward_member (w[m]), bit for bit."""
+def test_the_first_layer_stepped_on_its_active_columns_steps_as_the_whole_layer():
+    """stepping_rows + StackedMLP.first_layer_as, on inputs that are zero outside 3 of 10
+    columns: two clipped RMSprop steps on those rows of the first layer give the weights and
+    optimiser statistics that two steps on the whole layer give (up to rounding: the matmul
+    sums over fewer columns); the other rows' weights stay as they were and their square
+    averages decay exactly as a step with zero gradient decays them."""
+    import copy
+
+    from tlac.algorithms.optim import ForeachRMSpropTFLike, clip_grad_norm, stepping_rows
+    from tlac.algorithms.tlac_update import active_columns
+
     torch.manual_seed(0)
-    net = StackedMLP(10, [[8, 8], [8, 8], [8, 8]], [3, 5, 1], [True] * 3, [0.01, 0.01, 1.0])
-    x, replayed = torch.randn(6, 10), torch.randn(7, 10)
+    whole = StackedMLP(10, [[8, 8], [8, 8], [8, 8]], [3, 5, 1], [True] * 3, [0.01, 0.01, 1.0])
+    narrow = copy.deepcopy(whole)
+    x = torch.zeros(6, 10)
+    x[:, [1, 4, 7]] = torch.randn(6, 3)
+    cols = active_columns(x)
+    assert cols.tolist() == [1, 4, 7]
 
-    def grads(member_pass):
-        for p in net.parameters():
-            p.grad = None
-        out, _ = net(x)
-        (out.square().sum() + member_pass(replayed, 1)[0].sin().sum()).backward()
-        net.fold_member_grads()
-        return [p.grad.clone() for p in net.parameters()]
+    def two_steps(net, opt, inputs):
+        for _ in range(2):
+            params = opt.param_groups[0]["params"]
+            for p in params:
+                p.grad = None
+            out, _ = net(inputs)
+            out.sin().sum().backward()
+            clip_grad_norm([p.grad for p in params], 0.5)
+            opt.step()
 
-    expected = grads(net.forward_member)
-    got = grads(net.forward_member_leaves)
-    assert all(torch.equal(a, b) for a, b in zip(expected, got, strict=True))
+    opts = [
+        ForeachRMSpropTFLike(net.parameters(), lr=0.01, alpha=0.9, eps=1e-5)
+        for net in (whole, narrow)
+    ]
+    two_steps(whole, opts[0], x)
+    first = narrow.weights[0]
+    before = first.detach().clone()
+    with stepping_rows(opts[1], first, cols, dim=1) as part, narrow.first_layer_as(part, cols):
+        two_steps(narrow, opts[1], x[:, cols])
+    for a, b in zip(whole.parameters(), narrow.parameters(), strict=True):
+        torch.testing.assert_close(a, b, rtol=1e-6, atol=1e-7)
+        state_a, state_b = opts[0].state[a], opts[1].state[b]
+        assert state_a["step"] == state_b["step"] == 2
+        torch.testing.assert_close(state_a["square_avg"], state_b["square_avg"])
+    idle = [c for c in range(10) if c not in cols.tolist()]
+    assert torch.equal(first.detach()[:, idle], before[:, idle])
+    decayed = opts[1].state[first]["square_avg"][:, idle]
+    assert torch.equal(decayed, torch.ones_like(decayed).mul_(0.9).mul_(0.9))
+    assert opts[1].param_groups[0]["params"][0] is first and part not in opts[1].state

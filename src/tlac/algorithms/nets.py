@@ -15,6 +15,8 @@ layers.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import numpy as np
 import torch
@@ -85,8 +87,6 @@ class StackedMLP(nn.Module):
         # overhead against ~5 us for a PyTorch op, and acting needs no gradient. The
         # optimizer updates the parameters in place, so the views always see current weights.
         self._np_layers = [(w.detach().numpy(), b.detach().numpy()) for w, b, _ in self._layers]
-        # (member, per-layer (weight, bias) leaves) of forward_member_leaves since the last fold
-        self._leaves: list[tuple[int, list[tuple[torch.Tensor, torch.Tensor]]]] = []
 
     def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         h = x.unsqueeze(0).expand(self.members, *x.shape)
@@ -99,55 +99,18 @@ class StackedMLP(nn.Module):
                 last_hidden = h
         return h, last_hidden
 
-    def forward_member(self, x: torch.Tensor, m: int) -> tuple[torch.Tensor, torch.Tensor]:
-        """:meth:`forward` of member ``m`` alone: ``(out, last_hidden)`` of shapes
-        ``(B, max_out)`` and ``(B, max_hidden)``, with autograd into that member's weights only.
-        Cheaper than the stacked pass when only one member's output is needed."""
-        h = x
-        last = len(self._layers) - 1
-        last_hidden = h
-        for i, (w, b, mask) in enumerate(self._layers):
-            h = torch.addmm(b[m], h, w[m] if mask is None else w[m] * mask[m])
-            if i < last:
-                h = torch.tanh(h)
-                last_hidden = h
-        return h, last_hidden
-
-    def forward_member_leaves(self, x: torch.Tensor, m: int) -> tuple[torch.Tensor, torch.Tensor]:
-        """:meth:`forward_member` with autograd into leaf views of member ``m``'s weights
-        instead of the stacked parameters; :meth:`fold_member_grads`, after the backward pass,
-        adds their gradients into the stack's. What autograd does for ``w[m]`` is the same sum
-        through a stack-sized tensor of zeros: it allocated and zeroed the whole stack's shape
-        for every layer in every gradient step (a tenth of the default's update on DoorKey,
-        where the first layer is 3 x 1029 x 64). Same values: ``g_stack[m] + g_member``."""
-        layers = [
-            (w.detach()[m].requires_grad_(), b.detach()[m].requires_grad_())
-            for w, b, _ in self._layers
-        ]
-        self._leaves.append((m, layers))
-        h = x
-        last = len(self._layers) - 1
-        last_hidden = h
-        for i, ((w, b), (_, _, mask)) in enumerate(zip(layers, self._layers, strict=True)):
-            h = torch.addmm(b, h, w if mask is None else w * mask[m])
-            if i < last:
-                h = torch.tanh(h)
-                last_hidden = h
-        return h, last_hidden
-
-    def fold_member_grads(self) -> None:
-        """Add the gradients of :meth:`forward_member_leaves`' leaves into the stacked
-        parameters' (after ``backward``), and forget those leaves."""
-        with torch.no_grad():
-            for m, layers in self._leaves:
-                for (w, b, _), leaves in zip(self._layers, layers, strict=True):
-                    for p, leaf in zip((w, b), leaves, strict=True):
-                        if leaf.grad is None:  # a forward pass whose loss was not stepped on
-                            continue
-                        if p.grad is None:
-                            p.grad = torch.zeros_like(p)
-                        p.grad[m].add_(leaf.grad)
-        self._leaves.clear()
+    @contextmanager
+    def first_layer_as(self, weight: torch.Tensor, cols: torch.Tensor) -> Iterator[None]:
+        """While open, :meth:`forward` takes rows with the input columns ``cols`` only and
+        uses ``weight``, those rows of the first layer's weight (``(M, len(cols), out)``), as
+        the first layer (tlac.algorithms.optim.stepping_rows). Acting (:meth:`forward_numpy`)
+        keeps the whole layer."""
+        w, b, mask = self._layers[0]
+        self._layers[0] = (weight, b, None if mask is None else mask.index_select(1, cols))
+        try:
+            yield
+        finally:
+            self._layers[0] = (w, b, mask)
 
     def forward_numpy(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`forward` without autograd, in NumPy, for acting. Padded weights are exactly

@@ -8,12 +8,14 @@ is SB3's ``RMSpropTFLike`` with its per-parameter loop of five tensor ops replac
 (TL-AC's parameters are float32 CPU tensors). On the CPU a ``_foreach_`` op applies the same
 kernel to each tensor in turn, so both compute exactly what the originals do: same values, bit
 for bit (tests/test_default_pinned.py), same optimiser state (a checkpoint of either loads
-into the other).
+into the other). :func:`stepping_rows` steps some rows of a parameter in its place, for an
+update whose gradient is zero on the other rows (the first layer on one-hot observations).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 
 import torch
 from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
@@ -27,9 +29,7 @@ class ForeachRMSpropTFLike(RMSpropTFLike):
 
     @torch.no_grad()
     def step(self, closure: Callable[[], float] | None = None) -> float | None:  # type: ignore[override]
-        if closure is not None or any(
-            g["momentum"] > 0 or g["centered"] or g["weight_decay"] != 0 for g in self.param_groups
-        ):
+        if closure is not None or not self.zero_gradient_keeps_weights():
             return super().step(closure)
         for group in self.param_groups:
             params = [p for p in group["params"] if p.grad is not None]
@@ -61,13 +61,73 @@ class ForeachRMSpropTFLike(RMSpropTFLike):
         return scratch[id(p)]
 
     def _square_avg(self, p: torch.Tensor) -> torch.Tensor:
-        """``p``'s running square average, counting the step (SB3's state, started at 1)."""
+        """``p``'s running square average, counting the step."""
+        state = self.param_state(p)
+        state["step"] += 1
+        return state["square_avg"]
+
+    def param_state(self, p: torch.Tensor) -> dict:
+        """``p``'s state (SB3's: the steps taken, the square average started at 1)."""
         state = self.state[p]
         if len(state) == 0:
             state["step"] = 0
             state["square_avg"] = torch.ones_like(p, memory_format=torch.preserve_format)
-        state["step"] += 1
-        return state["square_avg"]
+        return state
+
+    def zero_gradient_keeps_weights(self) -> bool:
+        """Whether a step leaves a weight whose gradient is zero as it is (no momentum, no
+        weight decay, no centring): what :func:`stepping_rows` needs."""
+        return not any(
+            g["momentum"] > 0 or g["centered"] or g["weight_decay"] != 0 for g in self.param_groups
+        )
+
+
+@contextmanager
+def stepping_rows(
+    optimizer: ForeachRMSpropTFLike, param: torch.Tensor, rows: torch.Tensor, dim: int
+) -> Iterator[torch.Tensor]:
+    """Yield ``part``, the rows ``rows`` (along ``dim``) of parameter ``param`` as a leaf of
+    its own, which ``optimizer`` steps in ``param``'s place while the context is open, with
+    those rows of its square average. On exit ``part`` and its square average go back into
+    ``param``'s rows, and the other rows' square averages are multiplied by ``alpha`` once per
+    step taken.
+
+    That is exactly what those steps do when ``param``'s gradient is zero outside ``rows``:
+    ``square_avg = alpha * square_avg + (1 - alpha) * 0``, and the weight moves by
+    ``lr * 0 / sqrt(square_avg + eps) = 0``. TL-AC's first layer on one-hot observations is
+    such a parameter: an input column that is 0 in every row of an update gives its weights
+    no gradient, and on DoorKey about 300 of the 1029 columns are active in an update, so its
+    gradient, clipping and optimiser arithmetic run on those rows only.
+
+    >>> w = torch.nn.Parameter(torch.ones(2, 3))
+    >>> opt = ForeachRMSpropTFLike([w], lr=0.1, alpha=0.5, eps=1e-5)
+    >>> with stepping_rows(opt, w, torch.tensor([1]), dim=1) as part:
+    ...     part.grad = torch.ones(2, 1)
+    ...     _ = opt.step()
+    >>> [round(v, 3) for v in w[0].tolist()], opt.state[w]["square_avg"][0].tolist()
+    ([1.0, 0.9, 1.0], [0.5, 1.0, 0.5])
+    """
+    assert optimizer.zero_gradient_keeps_weights(), "a step moves weights whose gradient is zero"
+    group = next(g for g in optimizer.param_groups if any(p is param for p in g["params"]))
+    position = next(i for i, p in enumerate(group["params"]) if p is param)
+    state = optimizer.param_state(param)
+    part = param.detach().index_select(dim, rows).requires_grad_()
+    optimizer.state[part] = {
+        "step": state["step"],
+        "square_avg": state["square_avg"].index_select(dim, rows),
+    }
+    group["params"][position] = part
+    try:
+        yield part
+    finally:
+        group["params"][position] = param
+        stepped = optimizer.state.pop(part)
+        with torch.no_grad():
+            for _ in range(stepped["step"] - state["step"]):
+                state["square_avg"].mul_(group["alpha"])
+            state["square_avg"].index_copy_(dim, rows, stepped["square_avg"])
+            param.index_copy_(dim, rows, part)
+        state["step"] = stepped["step"]
 
 
 def clip_grad_norm(grads: list[torch.Tensor], max_norm: float) -> torch.Tensor:

@@ -219,21 +219,12 @@ class TLACHeads:
             hidden[LOW, :, : self.config.net_arch_low[-1]],
         )
 
-    def _replay_heads(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        """What the imitation term needs on replayed states: (high logits without gradient,
-        low output, low-level last hidden layer), computing only those two members."""
-        x = self._replay_input(obs)
-        with torch.no_grad():
-            high = self.net.forward_member(x, HIGH)[0][:, : self.n_choices]
-        low, hidden = self.net.forward_member_leaves(x, LOW)  # the step folds its gradient in
-        return high, low[:, : self.net.out_dims[LOW]], hidden[:, : self.config.net_arch_low[-1]]
-
-    def _replay_input(self, obs: torch.Tensor) -> torch.Tensor:
-        """Replayed raw observations -> what the networks see (normalised with the current
-        statistics, then encoded), as :meth:`_net_input` does for acting."""
+    def _replay_rows(self, obs: torch.Tensor) -> torch.Tensor:
+        """Replayed raw observations -> rows as :meth:`_heads` takes them: normalised with the
+        current statistics (as :meth:`_net_input` does for acting), then :meth:`_update_rows`."""
         if self.normalizer is not None:
             obs = self.normalizer.obs_torch(obs)
-        return obs if self.encoder is None else self.encoder.torch(obs)
+        return self._update_rows(obs)
 
     def _act_heads(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Acting pass: the same four heads as :meth:`_heads`, in NumPy, without autograd."""

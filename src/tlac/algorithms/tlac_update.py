@@ -162,10 +162,13 @@ class ReplayDraws:
 
 @dataclass(frozen=True)
 class ReplayPlan:
-    """The replayed rows of an update's minibatches (TLAC._replay_plan): which rows, and
-    their advice and its information, gathered once for all of them."""
+    """The replayed rows of an update's minibatches (TLAC._replay_plan): which rows, as the
+    networks take them, and their advice and its information, gathered once for all of them."""
 
     draws: ReplayDraws
+    x: torch.Tensor
+    """``(rows, ...)``: the drawn states as the update's passes take them, in draw order
+    (normalised with the statistics of the update, then encoded as TLAC._update_rows does)."""
     advice: torch.Tensor
     """``(n_teachers, rows, ...)``: the labels copied in every drawn row, in draw order
     (discrete actions: losses.advice_labels of the advice; Box actions: the actions meant)."""
@@ -173,3 +176,14 @@ class ReplayPlan:
     """``(n_teachers, rows)``: how much each teacher's advice says in each row (discrete
     actions: losses.advice_information of the advice before its labels were taken; Box
     actions: the information the teachers gave, tlac.teachers.base.advice_actions)."""
+
+
+def active_columns(*inputs: torch.Tensor) -> torch.Tensor:
+    """The columns that are nonzero in some row of the 2-D ``inputs``: the input columns whose
+    first-layer weights an update's gradients can reach (tlac.algorithms.optim.stepping_rows).
+
+    >>> active_columns(torch.tensor([[0.0, 1.0, 0.0]]), torch.tensor([[0.0, 0.0, 2.0]])).tolist()
+    [1, 2]
+    """
+    magnitude = sum(x.abs().sum(0) for x in inputs)  # a sixth of the time of (x != 0).any(0)
+    return (magnitude > 0).nonzero().squeeze(1)

@@ -18,8 +18,10 @@ clipped surrogate the paper's tables imply), :meth:`TLAC.learn` (the outer loop)
 
 from __future__ import annotations
 
+import dataclasses
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from typing import Any
 
 import gymnasium as gym
@@ -53,7 +55,7 @@ from tlac.algorithms.nets import (
     np_log_softmax,
 )
 from tlac.algorithms.obs_spaces import POLICIES, ObsPolicy
-from tlac.algorithms.optim import clip_grad_norm
+from tlac.algorithms.optim import ForeachRMSpropTFLike, clip_grad_norm, stepping_rows
 from tlac.algorithms.rollout import Rollout, compute_gae
 from tlac.algorithms.tlac_config import VARIANT_DEFAULTS, TLACConfig, resolve_settings  # noqa: F401  (VARIANT_DEFAULTS: re-exported)
 from tlac.algorithms.tlac_heads import TLACHeads, make_optimizer
@@ -67,6 +69,7 @@ from tlac.algorithms.tlac_update import (
     ReplayPlan,
     RowWeights,
     UpdateLog,
+    active_columns,
     row_weights,
     summarize_update,
 )
@@ -326,41 +329,23 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             self.greedy_solo,
         )
         # what every minibatch reads, prepared once: the rollout's rows as the networks see
-        # them, and the replayed rows (indices, advice) of every minibatch the update may take
+        # them, and the replayed rows (states, advice) of every minibatch the update may take
         x = self._update_rows(data["obs"] if self.normalizer is None else data["net_obs"])
         replay = None
         if imitates:
             replay = self._replay_plan(cfg.n_epochs * -(-n // cfg.batch_size))
-        log = UpdateLog()
-        per_level = cfg.update_rule == "per_level"
-        running = torch.ones(rows.old_log_probs.shape[0], dtype=torch.bool)  # [low, high]
-        for _epoch in range(cfg.n_epochs):
-            self._n_updates += 1  # epochs begun, as SB3's train/n_updates counts them
-            perm = torch.randperm(n, generator=self.generator)
-            for start in range(0, n, cfg.batch_size):
-                idx = perm[start : start + cfg.batch_size]
-                loss, kls, heads = self._minibatch_loss(
-                    data, idx, rows, clip, distill if imitates else None, log, x, replay
-                )
-                # SB3's rule: stop before a step that moves too far (per level, or all at once)
-                too_far = (
-                    kls > 1.5 * target_kl if target_kl is not None else torch.zeros_like(running)
-                )
-                if per_level:
-                    running &= ~too_far
-                    log.stopped_early = log.stopped_early or bool(too_far.any())
-                    if not running.any():
-                        break
-                    self._gradient_step_per_level(loss, running)
-                    continue
-                if bool(too_far.any()):
-                    log.stopped_early = True
-                    break
-                self._gradient_step(loss)
-            if (not running.any()) if per_level else log.stopped_early:
-                break
+        cols = self._narrowed_columns(x, replay)
+        if cols is not None:  # the first layer on the input columns this update activates
+            x = x[:, cols]
+            if replay is not None:
+                replay = dataclasses.replace(replay, x=replay.x[:, cols])
+        with self._first_layer_on(cols):
+            log, running, heads = self._epochs(
+                data, rows, clip, target_kl, distill if imitates else None, x, replay
+            )
         if replay is not None:
             replay.draws.finish()  # the generator as if each minibatch had drawn its own rows
+        per_level = cfg.update_rule == "per_level"
         out = summarize_update(log, rows.old_log_probs.shape[0])
         out["train/explained_variance"] = losses.explained_variance(data["values"], data["returns"])
         out["train/n_updates"] = self._n_updates
@@ -387,6 +372,87 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 out[f"train/stopped_{lv}"] = float(not run)
         return out
 
+    def _epochs(
+        self,
+        data: dict[str, torch.Tensor],
+        rows: RowWeights,
+        clip: float,
+        target_kl: float | None,
+        distill: float | None,
+        x: torch.Tensor,
+        replay: ReplayPlan | None,
+    ) -> tuple[UpdateLog, torch.Tensor, tuple[torch.Tensor, torch.Tensor, torch.Tensor]]:
+        """The update's epochs of minibatch gradient steps, until the target-KL stop: what
+        they logged, which levels still ran at the end (``[low, high]``; update_rule
+        per_level) and the heads of the last minibatch."""
+        cfg = self.config
+        n = x.shape[0]
+        log = UpdateLog()
+        per_level = cfg.update_rule == "per_level"
+        running = torch.ones(rows.old_log_probs.shape[0], dtype=torch.bool)  # [low, high]
+        heads: Any = None
+        for _epoch in range(cfg.n_epochs):
+            self._n_updates += 1  # epochs begun, as SB3's train/n_updates counts them
+            perm = torch.randperm(n, generator=self.generator)
+            for start in range(0, n, cfg.batch_size):
+                idx = perm[start : start + cfg.batch_size]
+                loss, kls, heads = self._minibatch_loss(
+                    data, idx, rows, clip, distill, log, x, replay
+                )
+                # SB3's rule: stop before a step that moves too far (per level, or all at once)
+                too_far = (
+                    kls > 1.5 * target_kl if target_kl is not None else torch.zeros_like(running)
+                )
+                if per_level:
+                    running &= ~too_far
+                    log.stopped_early = log.stopped_early or bool(too_far.any())
+                    if not running.any():
+                        break
+                    self._gradient_step_per_level(loss, running)
+                    continue
+                if bool(too_far.any()):
+                    log.stopped_early = True
+                    break
+                self._gradient_step(loss)
+            if (not running.any()) if per_level else log.stopped_early:
+                break
+        return log, running, heads
+
+    def _narrowed_columns(self, x: torch.Tensor, replay: ReplayPlan | None) -> torch.Tensor | None:
+        """The input columns that the update's rows (the rollout's ``x``, the replayed rows)
+        activate, where its first layer can step on those alone (:meth:`_first_layer_on`):
+        inputs read by the stacked networks' first layer (no CNN), the joint update rule, and
+        an optimiser that leaves weights without gradient as they are (RMSprop without
+        momentum). None where that does not hold or every column is active."""
+        if (
+            self._extractor_params
+            or self.config.update_rule != "joint"
+            or not isinstance(self.optimizer, ForeachRMSpropTFLike)
+            or not self.optimizer.zero_gradient_keeps_weights()
+        ):
+            return None
+        cols = active_columns(x) if replay is None else active_columns(x, replay.x)
+        return None if len(cols) == x.shape[1] else cols
+
+    @contextmanager
+    def _first_layer_on(self, cols: torch.Tensor | None) -> Iterator[None]:
+        """While open, the update's passes and gradient steps use only the rows ``cols`` of
+        the first layer's weight (None: all of it). One-hot observations activate a third of
+        DoorKey's 1029 input columns in an update; the other rows' weights get no gradient, so
+        the first layer's forward, weight gradient, clipping and optimiser arithmetic can skip
+        them, and their optimiser statistics decay as a zero gradient's step decays them
+        (tlac.algorithms.optim.stepping_rows). The same steps as on the whole layer, up to
+        floating-point rounding (a matmul over fewer columns sums its terms in another order)."""
+        if cols is None:
+            yield
+            return
+        first = self.net.weights[0]
+        with (
+            stepping_rows(self.optimizer, first, cols, dim=1) as part,
+            self.net.first_layer_as(part, cols),
+        ):
+            yield
+
     def _minibatch_loss(
         self,
         data: dict[str, torch.Tensor],
@@ -408,7 +474,16 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             x = self._update_rows(data["obs"] if self.normalizer is None else data["net_obs"])
         adv = data["advantages"][idx]  # one advantage for both levels (Eq. 6)
         adv = losses.normalize(adv) if cfg.normalize_advantage else adv
-        high_logits, low_out, values, latent = self._heads(x[idx])
+        replayed = None  # this minibatch's replayed rows, in the same pass as its own
+        if distill is not None:
+            one_off = replay is None  # planned here, for this minibatch alone
+            replay = self._replay_plan(1) if replay is None else replay
+            replayed = replay.draws.next()
+            if one_off:
+                replay.draws.finish()
+        b = len(idx)
+        heads = self._heads(x[idx] if replayed is None else torch.cat([x[idx], replay.x[replayed]]))
+        high_logits, low_out, values, latent = (h[:b] for h in heads)
         # low level, Eq. 3: log pi_low(a|s) A(s, a) on the EXECUTED actions
         lp_low = self._low_log_prob(low_out, latent, data["actions"][idx])
         log_probs = lp_low[None]
@@ -422,12 +497,14 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         )
         vf_loss = losses.value_loss(values, data["returns"][idx])  # Eq. 5
         loss = policy_losses.sum() + cfg.vf_coef * vf_loss
-        if distill is not None:
-            one_off = replay is None
-            replay = self._replay_plan(1) if replay is None else replay
-            imitation = self._replayed_imitation(replay)
-            if one_off:
-                replay.draws.finish()
+        if replayed is not None:  # the imitation term on the replayed rows
+            imitation = self._imitation_term(
+                heads[0][b:],
+                heads[1][b:],
+                heads[3][b:],
+                replay.advice[:, replayed],
+                replay.information[:, replayed],
+            )
             loss = loss + distill * imitation
             log.imitation.append(imitation.detach())
         if self._use_entropy:  # skipped when both coefficients are 0 (Table 5)
@@ -438,11 +515,11 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         return loss, kls.detach(), (high_logits, low_out, latent)
 
     def _gradient_step(self, loss: torch.Tensor) -> None:
-        for p in self.params:  # the optimiser's zero_grad(set_to_none=True), without its hooks
+        params = self.optimizer.param_groups[0]["params"]  # the first layer's rows stepped
+        for p in params:  # the optimiser's zero_grad(set_to_none=True), without its hooks
             p.grad = None
         loss.backward()
-        self.net.fold_member_grads()  # the replayed rows' (tlac_heads._replay_heads)
-        grads = [p.grad for p in self.params if p.grad is not None]
+        grads = [p.grad for p in params if p.grad is not None]
         norm = clip_grad_norm(grads, self.config.max_grad_norm)  # clip_grad_norm_'s arithmetic
         stop_if_not_finite(norm, "TL-AC", self.num_timesteps, "gradient norm")
         self.optimizer.step()
@@ -455,7 +532,6 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         (Adam's step count aside, which its state shares over the stack)."""
         self.optimizer.zero_grad(set_to_none=True)
         loss.backward()
-        self.net.fold_member_grads()  # the replayed rows' (tlac_heads._replay_heads)
         stacked = [p for p in self.net.parameters() if p.grad is not None]
         log_std_grad = None if self.log_std is None else self.log_std.grad
         own = {} if log_std_grad is None else {LOW: [log_std_grad]}  # the low level's own
@@ -521,18 +597,11 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         draws = ReplayDraws(
             len(buffer), self.config.imitation_batch_size, max_batches, self._replay_generator
         )
+        x = self._replay_rows(buffer.obs[draws.idx])
         advice = buffer.advice[draws.idx].transpose(0, 1)  # (n_teachers, rows, ...)
         if not self.discrete:  # the actions meant, and their information
-            return ReplayPlan(draws, advice[..., :-1], advice[..., -1])
-        return ReplayPlan(draws, losses.advice_labels(advice), losses.advice_information(advice))
-
-    def _replayed_imitation(self, replay: ReplayPlan) -> torch.Tensor:
-        """The imitation term on the next minibatch of states replayed from the advice buffer."""
-        assert self.advice_buffer is not None
-        rows = replay.draws.next()
-        obs = self.advice_buffer.obs[replay.draws.idx[rows]]
-        information = replay.information[:, rows]
-        return self._imitation_term(*self._replay_heads(obs), replay.advice[:, rows], information)
+            return ReplayPlan(draws, x, advice[..., :-1], advice[..., -1])
+        return ReplayPlan(draws, x, losses.advice_labels(advice), losses.advice_information(advice))
 
     def learn(
         self,
