@@ -870,3 +870,28 @@ def test_a_box_checkpoint_without_the_information_column_is_refused(tmp_path):
     torch.save(state, path)
     with pytest.raises(ConfigError, match="advice buffer holds rows of shape"):
         TLAC.load(path, env=gym.make("Pendulum-v1"), teachers=[push], resume=True)
+
+
+def test_the_update_is_the_same_with_replayed_rows_planned_or_made_per_minibatch(monkeypatch):
+    """An update holds its replayed rows (and narrows the first layer to the columns they and
+    the rollout activate) when they are small, else makes them per minibatch on the whole
+    layer: the same training, up to rounding, and the narrowing really happens on DoorKey."""
+    from tlac.algorithms import two_level
+
+    def trained(max_values: int) -> tuple[list[torch.Tensor], int]:
+        monkeypatch.setattr(two_level, "MAX_PLANNED_REPLAY_VALUES", max_values)
+        model = TLAC("doorkey", teachers=["optimal", "random", "random"], seed=4)
+        narrowed = []
+        original = model._narrowed_columns
+        monkeypatch.setattr(
+            model, "_narrowed_columns", lambda *a: narrowed.append(original(*a)) or narrowed[-1]
+        )
+        model.learn(96)
+        active = [len(c) for c in narrowed if c is not None]
+        return [p.detach().clone() for p in model.net.parameters()], len(active)
+
+    planned, narrowed_updates = trained(two_level.MAX_PLANNED_REPLAY_VALUES)
+    per_minibatch, none = trained(0)
+    assert narrowed_updates == 6 and none == 0
+    for a, b in zip(planned, per_minibatch, strict=True):
+        torch.testing.assert_close(a, b, rtol=1e-5, atol=1e-6)

@@ -166,9 +166,10 @@ class ReplayPlan:
     networks take them, and their advice and its information, gathered once for all of them."""
 
     draws: ReplayDraws
-    x: torch.Tensor
+    x: torch.Tensor | None
     """``(rows, ...)``: the drawn states as the update's passes take them, in draw order
-    (normalised with the statistics of the update, then encoded as TLAC._update_rows does)."""
+    (normalised with the statistics of the update, then encoded as TLAC._update_rows does);
+    None where they would be too large to hold (each minibatch then makes its own)."""
     advice: torch.Tensor
     """``(n_teachers, rows, ...)``: the labels copied in every drawn row, in draw order
     (discrete actions: losses.advice_labels of the advice; Box actions: the actions meant)."""

@@ -78,6 +78,12 @@ from tlac.presets import make_schedule
 from tlac.recording import MetricWindow, Recorder, find_episode_recorder, next_log_step
 from tlac.selectors import Selector, make_selector
 
+MAX_PLANNED_REPLAY_VALUES = 1 << 23
+"""An update holds the replayed rows of all its minibatches, as the networks take them, when
+they have at most this many values (32 MB of float32; DoorKey's preset: 320 x 1029); larger
+(images, or SB3-sized rollouts of wide one-hot rows) each minibatch makes its own, and the
+first layer is not narrowed (TLAC._narrowed_columns)."""
+
 
 class TLAC(TLACHeads, SB3Compat, TLACPersistence):
     """Two-Level Actor-Critic. ``TLAC(env, teachers, **settings).learn(steps)``.
@@ -337,7 +343,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         cols = self._narrowed_columns(x, replay)
         if cols is not None:  # the first layer on the input columns this update activates
             x = x[:, cols]
-            if replay is not None:
+            if replay is not None and replay.x is not None:
                 replay = dataclasses.replace(replay, x=replay.x[:, cols])
         with self._first_layer_on(cols):
             log, running, heads = self._epochs(
@@ -431,6 +437,8 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             or not self.optimizer.zero_gradient_keeps_weights()
         ):
             return None
+        if replay is not None and replay.x is None:  # the replayed rows are not all known
+            return None
         cols = active_columns(x) if replay is None else active_columns(x, replay.x)
         return None if len(cols) == x.shape[1] else cols
 
@@ -482,7 +490,9 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             if one_off:
                 replay.draws.finish()
         b = len(idx)
-        heads = self._heads(x[idx] if replayed is None else torch.cat([x[idx], replay.x[replayed]]))
+        heads = self._heads(
+            x[idx] if replayed is None else torch.cat([x[idx], self._replayed_x(replay, replayed)])
+        )
         high_logits, low_out, values, latent = (h[:b] for h in heads)
         # low level, Eq. 3: log pi_low(a|s) A(s, a) on the EXECUTED actions
         lp_low = self._low_log_prob(low_out, latent, data["actions"][idx])
@@ -513,6 +523,13 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         log.losses_and_kls.append(torch.cat([policy_losses.detach(), vf_loss.detach()[None], kls]))
         log.clip_fractions.append(losses.clip_fractions(log_probs, old, clip, weights))
         return loss, kls.detach(), (high_logits, low_out, latent)
+
+    def _replayed_x(self, replay: ReplayPlan, replayed: slice) -> torch.Tensor:
+        """A minibatch's replayed rows as :meth:`_heads` takes them: planned, or made here."""
+        if replay.x is not None:
+            return replay.x[replayed]
+        assert self.advice_buffer is not None
+        return self._replay_rows(self.advice_buffer.obs[replay.draws.idx[replayed]])
 
     def _gradient_step(self, loss: torch.Tensor) -> None:
         params = self.optimizer.param_groups[0]["params"]  # the first layer's rows stepped
@@ -597,7 +614,10 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         draws = ReplayDraws(
             len(buffer), self.config.imitation_batch_size, max_batches, self._replay_generator
         )
-        x = self._replay_rows(buffer.obs[draws.idx])
+        width = max(self.obs_dim, self.net.weights[0].shape[1])  # of a row, stored or encoded
+        x = None  # too large to hold (images, SB3's rollouts): made per minibatch
+        if draws.idx.numel() * width <= MAX_PLANNED_REPLAY_VALUES:
+            x = self._replay_rows(buffer.obs[draws.idx])
         advice = buffer.advice[draws.idx].transpose(0, 1)  # (n_teachers, rows, ...)
         if not self.discrete:  # the actions meant, and their information
             return ReplayPlan(draws, x, advice[..., :-1], advice[..., -1])
