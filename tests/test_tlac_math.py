@@ -323,3 +323,9 @@ def test_the_first_layer_stepped_on_its_active_columns_steps_as_the_whole_layer(
     decayed = opts[1].state[first]["square_avg"][:, idle]
     assert torch.equal(decayed, torch.ones_like(decayed).mul_(0.9).mul_(0.9))
     assert opts[1].param_groups[0]["params"][0] is first and part not in opts[1].state
+    # a new leaf in every update: the step's scratch buffers stay one per parameter
+    for rows in ([0, 2], [5], [1, 4, 7]):
+        cols = torch.tensor(rows)
+        with stepping_rows(opts[1], first, cols, dim=1) as part, narrow.first_layer_as(part, cols):
+            two_steps(narrow, opts[1], x[:, cols])
+    assert len(opts[1]._scratch_buffers[0]) == len(list(narrow.parameters()))

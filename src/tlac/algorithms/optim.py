@@ -31,7 +31,7 @@ class ForeachRMSpropTFLike(RMSpropTFLike):
     def step(self, closure: Callable[[], float] | None = None) -> float | None:  # type: ignore[override]
         if closure is not None or not self.zero_gradient_keeps_weights():
             return super().step(closure)
-        for group in self.param_groups:
+        for index, group in enumerate(self.param_groups):
             params = [p for p in group["params"] if p.grad is not None]
             grads = [p.grad for p in params]
             if any(g.is_sparse for g in grads):
@@ -44,21 +44,27 @@ class ForeachRMSpropTFLike(RMSpropTFLike):
             torch._foreach_addcmul_(squares, grads, grads, value=1 - alpha)
             # square_avg.add(eps), written into buffers kept from step to step: a fresh
             # 3 x 1029 x 64 tensor per step cost as much as the addition itself
-            avg = [
-                torch.add(s, group["eps"], out=self._scratch(p))
-                for p, s in zip(params, squares, strict=True)
-            ]
+            avg = self._scratch(index, params)
+            torch._foreach_copy_(avg, squares)
+            torch._foreach_add_(avg, group["eps"])
             torch._foreach_sqrt_(avg)
             torch._foreach_addcdiv_(params, grads, avg, value=-group["lr"])
         return None
 
-    def _scratch(self, p: torch.Tensor) -> torch.Tensor:
-        """A buffer of parameter ``p``'s shape, the same one at every step (not part of the
-        optimiser's state: its state_dict and checkpoints stay SB3's)."""
-        scratch: dict[int, torch.Tensor] = self.__dict__.setdefault("_scratch_buffers", {})
-        if id(p) not in scratch or scratch[id(p)].shape != p.shape:
-            scratch[id(p)] = torch.empty_like(p, memory_format=torch.preserve_format)
-        return scratch[id(p)]
+    def _scratch(self, group: int, params: list[torch.Tensor]) -> list[torch.Tensor]:
+        """Buffers of the shapes of a group's stepped ``params``, in order, the same ones from
+        step to step while the shapes stay (not part of the optimiser's state: its state_dict
+        and checkpoints stay SB3's). Kept per position, not per tensor: the rows that
+        :func:`stepping_rows` steps are a new tensor in every update."""
+        kept: dict[int, list[torch.Tensor]] = self.__dict__.setdefault("_scratch_buffers", {})
+        buffers = kept.setdefault(group, [])
+        del buffers[len(params) :]
+        for i, p in enumerate(params):
+            if i == len(buffers):
+                buffers.append(torch.empty_like(p, memory_format=torch.preserve_format))
+            elif buffers[i].shape != p.shape:
+                buffers[i] = torch.empty_like(p, memory_format=torch.preserve_format)
+        return buffers
 
     def _square_avg(self, p: torch.Tensor) -> torch.Tensor:
         """``p``'s running square average, counting the step."""
