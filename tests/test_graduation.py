@@ -872,26 +872,43 @@ def test_a_box_checkpoint_without_the_information_column_is_refused(tmp_path):
         TLAC.load(path, env=gym.make("Pendulum-v1"), teachers=[push], resume=True)
 
 
-def test_the_update_is_the_same_with_replayed_rows_planned_or_made_per_minibatch(monkeypatch):
+def _push_pendulum(obs: np.ndarray) -> np.ndarray:
+    return np.array([np.clip(-0.5 * obs[2], -2.0, 2.0)], dtype=np.float32)
+
+
+@pytest.mark.parametrize("case", ["doorkey", "Pendulum-v1"])
+def test_the_update_is_the_same_with_replayed_rows_planned_or_made_per_minibatch(monkeypatch, case):
     """An update holds its replayed rows (and narrows the first layer to the columns they and
     the rollout activate) when they are small, else makes them per minibatch on the whole
-    layer: the same training, up to rounding, and the narrowing really happens on DoorKey."""
+    layer: the same training, weights and optimiser statistics, up to rounding on DoorKey
+    (where the narrowing happens) and bit for bit on Pendulum (normalised raw inputs, every
+    column active)."""
     from tlac.algorithms import two_level
 
-    def trained(max_values: int) -> tuple[list[torch.Tensor], int]:
+    def trained(max_values: int) -> tuple[TLAC, int]:
         monkeypatch.setattr(two_level, "MAX_PLANNED_REPLAY_VALUES", max_values)
-        model = TLAC("doorkey", teachers=["optimal", "random", "random"], seed=4)
+        if case == "doorkey":
+            model = TLAC("doorkey", teachers=["optimal", "random", "random"], seed=4)
+        else:
+            env = gym.make(case)
+            env.action_space.seed(5)
+            teachers = [_push_pendulum, lambda obs: env.action_space.sample()]
+            model = TLAC(env, teachers=teachers, seed=4, n_steps=128, batch_size=32)
         narrowed = []
         original = model._narrowed_columns
         monkeypatch.setattr(
             model, "_narrowed_columns", lambda *a: narrowed.append(original(*a)) or narrowed[-1]
         )
-        model.learn(96)
-        active = [len(c) for c in narrowed if c is not None]
-        return [p.detach().clone() for p in model.net.parameters()], len(active)
+        model.learn(96 if case == "doorkey" else 384)
+        return model, sum(c is not None for c in narrowed)
 
     planned, narrowed_updates = trained(two_level.MAX_PLANNED_REPLAY_VALUES)
     per_minibatch, none = trained(0)
-    assert narrowed_updates == 6 and none == 0
-    for a, b in zip(planned, per_minibatch, strict=True):
-        torch.testing.assert_close(a, b, rtol=1e-5, atol=1e-6)
+    assert narrowed_updates == (6 if case == "doorkey" else 0) and none == 0
+    tolerance = 1e-6 if case == "doorkey" else 0.0
+    for a, b in zip(planned.params, per_minibatch.params, strict=True):
+        torch.testing.assert_close(a, b, rtol=0, atol=tolerance)
+        state_a, state_b = planned.optimizer.state[a], per_minibatch.optimizer.state[b]
+        assert state_a.keys() == state_b.keys() and float(state_a["step"]) > 0
+        for key, value in state_a.items():  # RMSprop's or Adam's statistics and step count
+            torch.testing.assert_close(value, state_b[key], rtol=0, atol=tolerance)

@@ -276,26 +276,24 @@ def test_foreach_rmsprop_and_clip_are_sb3s_and_torchs_bit_for_bit():
 
 
 def test_the_first_layer_stepped_on_its_active_columns_steps_as_the_whole_layer():
-    """stepping_rows + StackedMLP.first_layer_as, on inputs that are zero outside 3 of 10
-    columns: two clipped RMSprop steps on those rows of the first layer give the weights and
-    optimiser statistics that two steps on the whole layer give (up to rounding: the matmul
-    sums over fewer columns); the other rows' weights stay as they were and their square
-    averages decay exactly as a step with zero gradient decays them."""
+    """stepping_rows + StackedMLP.first_layer_as, on inputs that are zero outside some columns
+    (a padded first layer, statistics already moved by a step on every column, two updates on
+    other columns): each update's two clipped RMSprop steps on those rows of the first layer
+    give the weights and optimiser statistics that two steps on the whole layer give (up to
+    rounding: the matmul sums over fewer columns); the other rows' weights stay as they were
+    and their square averages decay exactly as a step with zero gradient decays them."""
     import copy
 
     from tlac.algorithms.optim import ForeachRMSpropTFLike, clip_grad_norm, stepping_rows
     from tlac.algorithms.tlac_update import active_columns
 
     torch.manual_seed(0)
-    whole = StackedMLP(10, [[8, 8], [8, 8], [8, 8]], [3, 5, 1], [True] * 3, [0.01, 0.01, 1.0])
+    whole = StackedMLP(10, [[8, 8], [6, 6], [8, 8]], [3, 5, 1], [True] * 3, [0.01, 0.01, 1.0])
+    assert whole._layers[0][2] is not None  # the first layer carries a width mask
     narrow = copy.deepcopy(whole)
-    x = torch.zeros(6, 10)
-    x[:, [1, 4, 7]] = torch.randn(6, 3)
-    cols = active_columns(x)
-    assert cols.tolist() == [1, 4, 7]
 
-    def two_steps(net, opt, inputs):
-        for _ in range(2):
+    def steps(net, opt, inputs, n):
+        for _ in range(n):
             params = opt.param_groups[0]["params"]
             for p in params:
                 p.grad = None
@@ -308,24 +306,32 @@ def test_the_first_layer_stepped_on_its_active_columns_steps_as_the_whole_layer(
         ForeachRMSpropTFLike(net.parameters(), lr=0.01, alpha=0.9, eps=1e-5)
         for net in (whole, narrow)
     ]
-    two_steps(whole, opts[0], x)
+    dense = torch.randn(6, 10)
+    for net, opt in zip((whole, narrow), opts, strict=True):  # every column moves once
+        steps(net, opt, dense, 1)
     first = narrow.weights[0]
-    before = first.detach().clone()
-    with stepping_rows(opts[1], first, cols, dim=1) as part, narrow.first_layer_as(part, cols):
-        two_steps(narrow, opts[1], x[:, cols])
-    for a, b in zip(whole.parameters(), narrow.parameters(), strict=True):
-        torch.testing.assert_close(a, b, rtol=1e-6, atol=1e-7)
-        state_a, state_b = opts[0].state[a], opts[1].state[b]
-        assert state_a["step"] == state_b["step"] == 2
-        torch.testing.assert_close(state_a["square_avg"], state_b["square_avg"])
-    idle = [c for c in range(10) if c not in cols.tolist()]
-    assert torch.equal(first.detach()[:, idle], before[:, idle])
-    decayed = opts[1].state[first]["square_avg"][:, idle]
-    assert torch.equal(decayed, torch.ones_like(decayed).mul_(0.9).mul_(0.9))
-    assert opts[1].param_groups[0]["params"][0] is first and part not in opts[1].state
-    # a new leaf in every update: the step's scratch buffers stay one per parameter
-    for rows in ([0, 2], [5], [1, 4, 7]):
-        cols = torch.tensor(rows)
+    for active in ([1, 4, 7], [0, 2, 5, 9]):
+        x = torch.zeros(6, 10)
+        x[:, active] = torch.randn(6, len(active))
+        cols = active_columns(x)
+        assert cols.tolist() == active
+        idle = [c for c in range(10) if c not in active]
+        weights_before = first.detach().clone()
+        squares_before = opts[1].state[first]["square_avg"].clone()
+        steps(whole, opts[0], x, 2)
         with stepping_rows(opts[1], first, cols, dim=1) as part, narrow.first_layer_as(part, cols):
-            two_steps(narrow, opts[1], x[:, cols])
+            steps(narrow, opts[1], x[:, cols], 2)
+        for a, b in zip(whole.parameters(), narrow.parameters(), strict=True):
+            torch.testing.assert_close(a, b, rtol=0, atol=1e-7)
+            state_a, state_b = opts[0].state[a], opts[1].state[b]
+            assert state_a["step"] == state_b["step"]
+            torch.testing.assert_close(
+                state_a["square_avg"], state_b["square_avg"], rtol=0, atol=1e-7
+            )
+        assert torch.equal(first.detach()[:, idle], weights_before[:, idle])
+        decayed = squares_before[:, idle].mul_(0.9).mul_(0.9)
+        assert torch.equal(opts[1].state[first]["square_avg"][:, idle], decayed)
+        assert opts[1].param_groups[0]["params"][0] is first and part not in opts[1].state
+    assert opts[1].state[first]["step"] == 5
+    # a new leaf in every update: the step's scratch buffers stay one per parameter
     assert len(opts[1]._scratch_buffers[0]) == len(list(narrow.parameters()))

@@ -529,17 +529,23 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         if replay.x is not None:
             return replay.x[replayed]
         assert self.advice_buffer is not None
+        assert self.net.weights[0] is self.net._layers[0][0], "a narrowed layer needs planned rows"
         return self._replay_rows(self.advice_buffer.obs[replay.draws.idx[replayed]])
 
     def _gradient_step(self, loss: torch.Tensor) -> None:
-        params = self.optimizer.param_groups[0]["params"]  # the first layer's rows stepped
+        # what the optimiser steps: self.params, with the first layer's active rows in place
+        # of the whole weight while _first_layer_on is open
+        params = [p for group in self.optimizer.param_groups for p in group["params"]]
         for p in params:  # the optimiser's zero_grad(set_to_none=True), without its hooks
             p.grad = None
         loss.backward()
         grads = [p.grad for p in params if p.grad is not None]
         norm = clip_grad_norm(grads, self.config.max_grad_norm)  # clip_grad_norm_'s arithmetic
         stop_if_not_finite(norm, "TL-AC", self.num_timesteps, "gradient norm")
-        self.optimizer.step()
+        if isinstance(self.optimizer, ForeachRMSpropTFLike):
+            self.optimizer.step_unhooked()  # its step, without torch's profiler range and hooks
+        else:
+            self.optimizer.step()
 
     def _gradient_step_per_level(self, loss: torch.Tensor, running: torch.Tensor) -> None:
         """update_rule per_level: each network's gradient clipped to max_grad_norm on its own,
