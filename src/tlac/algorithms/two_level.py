@@ -621,7 +621,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             len(buffer), self.config.imitation_batch_size, max_batches, self._replay_generator
         )
         width = max(self.obs_dim, self.net.weights[0].shape[1])  # of a row, stored or encoded
-        x = None  # too large to hold (images, SB3's rollouts): made per minibatch
+        x = None  # too large to hold (images; wide rows over SB3-sized rollouts): per minibatch
         if draws.idx.numel() * width <= MAX_PLANNED_REPLAY_VALUES:
             x = self._replay_rows(buffer.obs[draws.idx])
         advice = buffer.advice[draws.idx].transpose(0, 1)  # (n_teachers, rows, ...)
