@@ -94,6 +94,11 @@ def _paper_run_digest(tmp_path, teachers, overrides) -> str:
     return hashlib.sha256((tmp_path / "episodes.csv").read_bytes()).hexdigest()[:16]
 
 
+def _push_pendulum(obs: np.ndarray) -> np.ndarray:
+    """A weak Pendulum controller: torque against the angular speed."""
+    return np.array([np.clip(-0.5 * obs[2], -2.0, 2.0)], dtype=np.float32)
+
+
 @pytest.mark.parametrize(("teachers", "kl_rows"), list(PAPER_GOLDEN))
 def test_paper_variant_joint_rule_is_pinned(tmp_path, teachers, kl_rows):
     overrides = {"update_rule": "joint", "kl_rows": kl_rows}
@@ -804,10 +809,13 @@ def test_box_solo_episodes_are_greedy_and_leave_the_policy_gradient():
     episode acts with pi_low's mean (the student a user deploys), and its rows are no samples
     of pi_low, so the low level's policy gradient leaves them out. With `agent` (the default
     preset of a user's environment) solo episodes stay sampled."""
-    push = lambda obs: np.array([np.clip(-0.5 * obs[2], -2.0, 2.0)], np.float32)  # noqa: E731
     settings = {"solo_budget": 1.0, "normalize_obs": False, "teacher_episodes": 0.0}
     model = TLAC(
-        gym.make("Pendulum-v1"), teachers=[push], low_level_data="silent", seed=0, **settings
+        gym.make("Pendulum-v1"),
+        teachers=[_push_pendulum],
+        low_level_data="silent",
+        seed=0,
+        **settings,
     )
     from tlac.algorithms.tlac_update import row_weights
 
@@ -828,7 +836,7 @@ def test_box_solo_episodes_are_greedy_and_leave_the_policy_gradient():
     sampled = row_weights(cfg, data, 1, True, True, True, torch.ones(4), greedy_solo=False)
     assert greedy.loss[0].tolist() == [0.0, 1.0, 0.0, 1.0]
     assert sampled.loss[0].tolist() == [1.0, 1.0, 0.0, 1.0]
-    sampling = TLAC(gym.make("Pendulum-v1"), teachers=[push], seed=0, **settings)
+    sampling = TLAC(gym.make("Pendulum-v1"), teachers=[_push_pendulum], seed=0, **settings)
     assert sampling.config.low_level_data == "agent" and not sampling.greedy_solo
 
 
@@ -838,10 +846,12 @@ def test_greedy_solo_rows_leave_the_kl_estimate_and_apply_with_silent_only():
     with `all` or `agent` its policy gradient needs sampled solo rows."""
     from tlac.algorithms.tlac_update import row_weights
 
-    push = lambda obs: np.array([np.clip(-0.5 * obs[2], -2.0, 2.0)], np.float32)  # noqa: E731
     for data_rule, greedy in (("silent", True), ("all", False), ("agent", False)):
         model = TLAC(
-            gym.make("Pendulum-v1"), teachers=[push], low_level_data=data_rule, solo_budget=0.5
+            gym.make("Pendulum-v1"),
+            teachers=[_push_pendulum],
+            low_level_data=data_rule,
+            solo_budget=0.5,
         )
         assert model.greedy_solo is greedy, data_rule
     data = {
@@ -859,8 +869,9 @@ def test_a_box_checkpoint_without_the_information_column_is_refused(tmp_path):
     """A Box run's advice buffer stores each teacher's information in a last column since
     2026-11-27; resuming a checkpoint whose rows have another shape is a ConfigError, not a
     silent misreading (with one action dimension the action would read as information)."""
-    push = lambda obs: np.array([np.clip(-0.5 * obs[2], -2.0, 2.0)], np.float32)  # noqa: E731
-    model = TLAC(gym.make("Pendulum-v1"), teachers=[push], n_steps=64, batch_size=64, seed=0)
+    model = TLAC(
+        gym.make("Pendulum-v1"), teachers=[_push_pendulum], n_steps=64, batch_size=64, seed=0
+    )
     model.learn(128, progress_bar=False)
     path = tmp_path / "run.pt"
     model.save(path, training_state=True)
@@ -869,11 +880,7 @@ def test_a_box_checkpoint_without_the_information_column_is_refused(tmp_path):
     advice["advice"] = advice["advice"][..., :-1]  # as a Box run saved before the column
     torch.save(state, path)
     with pytest.raises(ConfigError, match="advice buffer holds rows of shape"):
-        TLAC.load(path, env=gym.make("Pendulum-v1"), teachers=[push], resume=True)
-
-
-def _push_pendulum(obs: np.ndarray) -> np.ndarray:
-    return np.array([np.clip(-0.5 * obs[2], -2.0, 2.0)], dtype=np.float32)
+        TLAC.load(path, env=gym.make("Pendulum-v1"), teachers=[_push_pendulum], resume=True)
 
 
 @pytest.mark.parametrize("case", ["doorkey", "Pendulum-v1"])
