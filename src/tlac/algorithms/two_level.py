@@ -542,8 +542,12 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         grads = [p.grad for p in params if p.grad is not None]
         norm = clip_grad_norm(grads, self.config.max_grad_norm)  # clip_grad_norm_'s arithmetic
         stop_if_not_finite(norm, "TL-AC", self.num_timesteps, "gradient norm")
+        self._optimizer_step()
+
+    def _optimizer_step(self) -> None:
+        """The optimiser's step; ours without torch's profiler range and hooks."""
         if isinstance(self.optimizer, ForeachRMSpropTFLike):
-            self.optimizer.step_unhooked()  # its step, without torch's profiler range and hooks
+            self.optimizer.step_unhooked()
         else:
             self.optimizer.step()
 
@@ -572,7 +576,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             norm = nn.utils.clip_grad_norm_(self._extractor_params, self.config.max_grad_norm)
             stop_if_not_finite(norm, "TL-AC", self.num_timesteps, "gradient norm")
         kept = self._member_state(stopped)
-        self.optimizer.step()
+        self._optimizer_step()
         for live, saved in kept:
             live.copy_(saved)
 
