@@ -240,14 +240,19 @@ def sb3_milestone_callback(curve: Curve, offset: int = 0, view: Encode | None = 
     return Milestones()
 
 
-def train_tlac(case: str, seed: int, steps: int, curve: Curve) -> None:
+def train_tlac(
+    case: str, seed: int, steps: int, curve: Curve, settings: dict[str, Any] | None = None
+) -> None:
+    """TL-AC with its default (the case's preset), ``settings`` on top (``--tlac-setting``)."""
     from tlac import TLAC
 
+    settings = settings or {}
     if is_doorkey(case):  # the named domain: its preset, its teachers by name
-        model = TLAC("doorkey", teachers=DOORKEY_CASES[case], seed=seed)
+        model = TLAC("doorkey", teachers=DOORKEY_CASES[case], seed=seed, **settings)
     else:
         env = make_env(case)
-        model = TLAC(env, teachers=user_envs.SUITE[case](seed, env.action_space), seed=seed)
+        teachers = user_envs.SUITE[case](seed, env.action_space)
+        model = TLAC(env, teachers=teachers, seed=seed, **settings)
 
     def after_update(m: Any) -> bool:
         if curve.due(m.num_timesteps):
@@ -389,8 +394,9 @@ def train_one(
     steps = args.steps
     curve = Curve(case, args.eval_every, args.episodes)
     view = peer_view(case, args.onehot_peers)
+    settings = user_envs.parse_settings(args.tlac_setting)
     if learner == "tlac":
-        train_tlac(case, seed, steps, curve)
+        train_tlac(case, seed, steps, curve, settings)
     elif learner == "ppo":
         train_ppo(case, seed, steps, curve, view)
     elif learner == "bc-ppo":
@@ -400,6 +406,8 @@ def train_one(
     result = {"case": case, "learner": learner, "seed": seed, "steps": steps, "curve": curve.points}
     if learner in ("bc-ppo", "dagger"):
         result["teacher"] = teacher_name
+    if learner == "tlac" and settings:
+        result["settings"] = settings
     if learner != "tlac" and view is not None:
         result["observations"] = "onehot"
     return result
@@ -571,9 +579,17 @@ def main() -> None:
         action="store_true",
         help="DoorKey only: the peers' networks read the observations one-hot encoded, as TL-AC's",
     )
+    parser.add_argument(
+        "--tlac-setting",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a TL-AC setting for every TL-AC run, on top of its preset (repeatable)",
+    )
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--out", type=Path, default=Path("results/peers"))
     args = parser.parse_args()
+    user_envs.parse_settings(args.tlac_setting)  # a malformed pair stops here, before any run
     if not 0 < args.demo_steps < args.steps:
         parser.error(
             f"--demo-steps must be between 0 and --steps ({args.steps}), got {args.demo_steps}"

@@ -9,7 +9,7 @@ import pytest
 from stable_baselines3.common.running_mean_std import RunningMeanStd as SB3RunningMeanStd
 
 from tlac import TLAC
-from tlac.algorithms.normalization import Normalizer
+from tlac.algorithms.normalization import Normalizer, add_to_running_stats
 from tlac.errors import ConfigError
 
 
@@ -123,3 +123,18 @@ def test_a2c_normalize_wraps_vecnormalize_and_predicts_from_saved_statistics(tmp
     np.testing.assert_allclose(loaded.predict(obs, deterministic=True)[0], expected, rtol=1e-6)
     with pytest.raises(ConfigError, match="normalize must be true or false"):
         A2CBaseline.check_hyperparameters({"normalize": "yes"})
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_one_row_at_a_time_adds_to_the_statistics_bit_for_bit_as_sb3(dtype: type) -> None:
+    # the single-row path (moments passed as they are) against SB3's own update, over a stream
+    # of rows of very different scales, and a batch of two rows through the general path
+    rng = np.random.default_rng(0)
+    ours, sb3 = SB3RunningMeanStd(shape=(3,)), SB3RunningMeanStd(shape=(3,))
+    for t in range(500):
+        batch = (rng.standard_normal((1 if t % 50 else 2, 3)) * [1e-3, 1.0, 1e3]).astype(dtype)
+        add_to_running_stats(ours, batch)
+        sb3.update(batch)
+    assert ours.count == sb3.count
+    assert ours.mean.tobytes() == sb3.mean.tobytes()
+    assert ours.var.tobytes() == sb3.var.tobytes()

@@ -125,3 +125,25 @@ def test_onehot_peers_read_what_tlacs_networks_read_and_clone_through_it():
     policy = PPO("MlpPolicy", wrapped, seed=0, device="cpu").policy
     peers.clone_steps(policy, demo_obs, actions, 200, np.random.default_rng(0), view)
     assert (policy.predict(view(demo_obs), deterministic=True)[0] == 2).all()
+
+
+def test_tlac_settings_reach_every_tlac_run(monkeypatch):
+    """--tlac-setting KEY=VALUE: on top of the case's preset, for DoorKey and a user's case."""
+    import tlac
+
+    made = []
+
+    class Recorder:
+        def __init__(self, env, **kwargs):
+            made.append((env, kwargs))
+
+        def learn(self, steps, callback):
+            pass
+
+    monkeypatch.setattr(tlac, "TLAC", Recorder)
+    settings = peers.user_envs.parse_settings(["normalize_obs=false", "distill_coef=3"])
+    for case in ["CartPole-v1", "DoorKey+1optimal-2random"]:
+        peers.train_tlac(case, 0, 10, peers.Curve(case, 10, 1), settings)
+    assert [k["normalize_obs"] for _, k in made] == [False, False]
+    assert [k["distill_coef"] for _, k in made] == [3, 3]
+    assert made[1][0] == "doorkey" and made[1][1]["teachers"] == ["optimal", "random", "random"]

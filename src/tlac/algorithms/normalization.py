@@ -55,6 +55,24 @@ def set_vec_normalize_state(vec_normalize: Any, state: dict[str, Any]) -> None:
     set_rms_state(vec_normalize.ret_rms, state["ret_rms"])
 
 
+def add_to_running_stats(rms: RunningMeanStd, batch: np.ndarray) -> None:
+    """``rms.update(batch)``, bit for bit. One float row (one environment's step, the usual
+    case) is its own mean with variance 0, so its moments are passed as they are: NumPy's
+    ``mean`` and ``var`` of a single row cost ~15 us, most of a step's statistics.
+
+    >>> a, b = RunningMeanStd(shape=(2,)), RunningMeanStd(shape=(2,))
+    >>> row = np.array([[0.1, -3.0]], dtype=np.float32)
+    >>> a.update(row); add_to_running_stats(b, row)
+    >>> bool((a.mean == b.mean).all() and (a.var == b.var).all() and a.count == b.count)
+    True
+    """
+    if batch.ndim == 2 and batch.shape[0] == 1 and batch.dtype.kind == "f":
+        row = batch[0]
+        rms.update_from_moments(row, np.zeros_like(row), 1)
+    else:
+        rms.update(batch)
+
+
 class Normalizer:
     """Observation and/or reward normalisation for ``n_envs`` parallel environments."""
 
@@ -82,7 +100,7 @@ class Normalizer:
     def update_obs(self, obs: np.ndarray) -> None:
         """Add a batch of raw observations to the statistics (while training only)."""
         if self.normalize_obs:
-            self.obs_rms.update(obs)
+            add_to_running_stats(self.obs_rms, obs)
             self._refresh()
 
     def obs_numpy(self, obs: np.ndarray) -> np.ndarray:
