@@ -8,7 +8,8 @@ fresh evaluation episodes, and the training wall-clock so far is recorded (evalu
 excluded). The peers that need one teacher get the best one, chosen by its measured return
 (an oracle choice that TL-AC does not need):
 
-- ``tlac``: TL-AC's defaults with all of the case's teachers (``TLAC(env, teachers=...)``).
+- ``tlac``: TL-AC's defaults with all of the case's teachers (``TLAC(env, teachers=...)``);
+  ``--tlac-setting KEY=VALUE`` (repeatable) sets a TL-AC setting on top, recorded in its runs.
 - ``ppo``: SB3 PPO's defaults, no teachers (on DoorKey: the domain's ``ppo`` preset, Table 5's
   settings without the high level, as every DoorKey PPO of this project).
 - ``bc-ppo``: ``--demo-steps`` environment steps of the best teacher's demonstrations, behaviour
