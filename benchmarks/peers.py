@@ -591,9 +591,10 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("results/peers"))
     args = parser.parse_args()
     user_envs.parse_settings(args.tlac_setting)  # a malformed pair stops here, before any run
-    if not 0 < args.demo_steps < args.steps:
+    if "bc-ppo" in args.learners and not 0 < args.demo_steps < args.steps:
         parser.error(
-            f"--demo-steps must be between 0 and --steps ({args.steps}), got {args.demo_steps}"
+            f"--demo-steps (bc-ppo's demonstrations) must be between 0 and --steps "
+            f"({args.steps}), got {args.demo_steps}"
         )
     if args.onehot_peers and not all(is_doorkey(c) for c in args.cases):
         parser.error(

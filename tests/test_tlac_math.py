@@ -275,6 +275,38 @@ def test_foreach_rmsprop_and_clip_are_sb3s_and_torchs_bit_for_bit():
     assert [sb3[i]["step"] for i in sb3] == [ours[i]["step"] for i in ours]
 
 
+def test_foreach_adam_is_torchs_adam_bit_for_bit():
+    """ForeachAdam.step_unhooked computes exactly what torch.optim.Adam(foreach=True) does (the
+    user preset's CartPole and Pendulum digests rely on it): same weights and state after steps
+    at a changing learning rate, over gradients of many scales, with a parameter that has no
+    gradient in some steps (its own step count stays behind); options it does not compute itself
+    (amsgrad) take torch's step."""
+    from tlac.algorithms.optim import ForeachAdam
+
+    shapes = [(3, 6, 8), (3, 1, 8), (3, 8, 2), (5,)]
+    for options in ({}, {"amsgrad": True}):
+        torch.manual_seed(0)
+        ref = [torch.nn.Parameter(torch.randn(s)) for s in shapes]
+        new = [torch.nn.Parameter(p.detach().clone()) for p in ref]
+        torch_adam = torch.optim.Adam(ref, lr=3e-4, eps=1e-5, foreach=True, **options)
+        ours = ForeachAdam(new, lr=3e-4, eps=1e-5, foreach=True, **options)
+        for step in range(60):
+            for k, (a, b) in enumerate(zip(ref, new, strict=True)):
+                skipped = k == 3 and step % 7 == 0
+                grad = None if skipped else torch.randn(a.shape) * 10.0 ** (step % 9 - 4)
+                a.grad, b.grad = grad, None if grad is None else grad.clone()
+            for opt in (torch_adam, ours):
+                opt.param_groups[0]["lr"] = 3e-4 * (1 - step / 60)
+            torch_adam.step()
+            ours.step_unhooked()
+            assert all(torch.equal(a, b) for a, b in zip(ref, new, strict=True))
+        theirs, mine = torch_adam.state_dict()["state"], ours.state_dict()["state"]
+        for i in theirs:
+            assert theirs[i].keys() == mine[i].keys()
+            assert all(torch.equal(theirs[i][k], mine[i][k]) for k in theirs[i])
+        assert mine[3]["step"] < mine[0]["step"]
+
+
 def test_the_first_layer_stepped_on_its_active_columns_steps_as_the_whole_layer():
     """stepping_rows + StackedMLP.first_layer_as, on inputs that are zero outside some columns
     (a padded first layer, statistics already moved by a step on every column, two updates on

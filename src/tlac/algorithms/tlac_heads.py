@@ -36,7 +36,7 @@ from tlac.algorithms.nets import (
 )
 from tlac.algorithms.normalization import Normalizer
 from tlac.algorithms.obs_spaces import ObsEncoder, ObsLayout, ObsPolicy, make_layout
-from tlac.algorithms.optim import ForeachRMSpropTFLike
+from tlac.algorithms.optim import ForeachAdam, ForeachRMSpropTFLike
 from tlac.errors import ConfigError
 from tlac.memory import FLOAT_BYTES, check_fits, mlp_params, network_bytes
 from tlac.presets import make_schedule
@@ -489,9 +489,9 @@ class TLACHeads:
 
 def make_optimizer(cfg: TLACConfig, params: list[nn.Parameter]) -> torch.optim.Optimizer:
     """The optimiser of all three networks: SB3's RMSpropTFLike (the paper's Table 5) or Adam,
-    at the learning rate's starting value (``learn`` sets it per update from its schedule)."""
+    at the learning rate's starting value (``learn`` sets it per update from its schedule),
+    each stepped with one call per operation (tlac.algorithms.optim)."""
     lr0 = make_schedule(cfg.learning_rate, "learning_rate")(1.0)
     if cfg.optimizer == "adam":
-        return torch.optim.Adam(params, lr=lr0, eps=cfg.optimizer_eps, foreach=True)
-    # SB3's RMSpropTFLike, stepped with one call per operation (tlac.algorithms.optim)
+        return ForeachAdam(params, lr=lr0, eps=cfg.optimizer_eps, foreach=True)
     return ForeachRMSpropTFLike(params, lr=lr0, alpha=0.99, eps=cfg.optimizer_eps)  # A2C's alpha

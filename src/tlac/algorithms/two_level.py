@@ -55,7 +55,12 @@ from tlac.algorithms.nets import (
     np_log_softmax,
 )
 from tlac.algorithms.obs_spaces import POLICIES, ObsPolicy
-from tlac.algorithms.optim import ForeachRMSpropTFLike, clip_grad_norm, stepping_rows
+from tlac.algorithms.optim import (
+    ForeachAdam,
+    ForeachRMSpropTFLike,
+    clip_grad_norm,
+    stepping_rows,
+)
 from tlac.algorithms.rollout import Rollout, compute_gae
 from tlac.algorithms.tlac_config import VARIANT_DEFAULTS, TLACConfig, resolve_settings  # noqa: F401  (VARIANT_DEFAULTS: re-exported)
 from tlac.algorithms.tlac_heads import TLACHeads, make_optimizer
@@ -546,7 +551,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
 
     def _optimizer_step(self) -> None:
         """The optimiser's step; ours without torch's profiler range and hooks."""
-        if isinstance(self.optimizer, ForeachRMSpropTFLike):
+        if isinstance(self.optimizer, (ForeachRMSpropTFLike, ForeachAdam)):
             self.optimizer.step_unhooked()
         else:
             self.optimizer.step()
