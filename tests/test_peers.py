@@ -147,3 +147,29 @@ def test_tlac_settings_reach_every_tlac_run(monkeypatch):
     assert [k["normalize_obs"] for _, k in made] == [False, False]
     assert [k["distill_coef"] for _, k in made] == [3, 3]
     assert made[1][0] == "doorkey" and made[1][1]["teachers"] == ["optimal", "random", "random"]
+
+
+def test_demo_steps_are_checked_only_where_bc_then_ppo_runs(monkeypatch, tmp_path, capsys):
+    """--demo-steps (10,000 by default) is BC then PPO's: a short run of other learners needs
+    no value for it; with bc-ppo a value outside (0, --steps) stops before any run."""
+    import pytest
+
+    class Started(Exception):
+        pass
+
+    def started(*args, **kwargs):
+        raise Started
+
+    monkeypatch.setattr(peers, "reference_returns", started)
+    base = ["peers.py", "--cases", "Acrobot-v1", "--steps", "2048", "--out", str(tmp_path)]
+    monkeypatch.setattr(sys, "argv", [*base, "--learners", "tlac", "dagger"])
+    with pytest.raises(Started):
+        peers.main()
+    monkeypatch.setattr(sys, "argv", [*base, "--learners", "tlac", "bc-ppo"])
+    with pytest.raises(SystemExit) as stopped:
+        peers.main()
+    assert stopped.value.code == 2
+    assert (
+        "--demo-steps (bc-ppo's demonstrations) must be between 0 and --steps (2048), got 10000"
+        in (capsys.readouterr().err)
+    )
