@@ -29,6 +29,19 @@ ROWS = {  # case -> (label, folder, learner)
     ],
 }
 ROWS["CartPole-v1"] = ROWS["Acrobot-v1"]
+for case in ("MountainCar-v0", "Pendulum-v1"):  # the other scripted cases (commit 7e85de4)
+    ROWS[case] = [
+        ("TL-AC, 2,048-step grid", FINE, "tlac"),
+        ("DAgger, 2,048-step grid", FINE, "dagger"),
+        ("BC then PPO, 1e4 demonstrations (results/peers-user)", COARSE, "bc-ppo"),
+        ("PPO alone, 1e4-step grid (results/peers-user)", COARSE, "ppo"),
+    ]
+ROWS["CartPole-v1+weak"] = [  # the closest weak case on the 1e4 grid (commit 7e85de4)
+    ("TL-AC, 2,048-step grid", FINE, "tlac"),
+    ("PPO alone, 2,048-step grid", FINE, "ppo"),
+    ("BC then PPO, 1e4 demonstrations (results/peers-user)", COARSE, "bc-ppo"),
+    ("DAgger, 1e4-step grid (results/peers-user)", COARSE, "dagger"),
+]
 
 
 def main() -> None:
