@@ -109,10 +109,11 @@ class ForeachAdam(torch.optim.Adam):
     """``torch.optim.Adam(..., foreach=True)``: its ``_multi_tensor_adam`` arithmetic, the same
     ``_foreach_`` calls in the same order with the same per-parameter bias corrections, without
     what surrounds them in every ``step`` (the profiler range and hooks, the grouping of
-    tensors by device and dtype, the checks of options TL-AC does not use): ~200 us of the
-    ~350 us a step of the user preset's parameters takes. The options TL-AC does not use
-    (amsgrad, weight decay, maximize, capturable, differentiable, fused, a tensor learning
-    rate, a closure) take torch's own step. Same state, so checkpoints load into either."""
+    tensors by device and dtype, the checks of options TL-AC does not use): 103 us a step
+    instead of 163 us on the user preset's six stacked parameters (a 6-feature, 3-action
+    environment; 3,000 steps each, measured alone). What TL-AC does not use (amsgrad, weight
+    decay, maximize, capturable, differentiable, fused, a tensor learning rate or betas, sparse
+    or complex gradients) takes torch's own step. Same state, so checkpoints load into either."""
 
     def step_unhooked(self) -> None:
         """:meth:`step`'s arithmetic for TL-AC's update, which registers no hook."""
@@ -124,13 +125,17 @@ class ForeachAdam(torch.optim.Adam):
                 self._foreach_step(group)
 
     def _plain(self) -> bool:
-        """Whether every group uses only what :meth:`_foreach_step` computes."""
+        """Whether every group and gradient is what :meth:`_foreach_step` computes for."""
         return all(
             not (g["amsgrad"] or g["maximize"] or g["capturable"] or g["differentiable"])
             and not g["fused"]
             and g["weight_decay"] == 0
             and not torch.is_tensor(g["lr"])
             and not any(torch.is_tensor(b) for b in g["betas"])
+            and not any(
+                p.grad is not None and (p.grad.is_sparse or p.grad.is_complex())
+                for p in g["params"]
+            )
             for g in self.param_groups
         )
 
@@ -139,9 +144,6 @@ class ForeachAdam(torch.optim.Adam):
         if not params:
             return
         grads = [p.grad for p in params]
-        if any(g.is_sparse or g.is_complex() for g in grads):
-            super().step()
-            return
         states = [self._state(p) for p in params]
         exp_avgs = [s["exp_avg"] for s in states]
         exp_avg_sqs = [s["exp_avg_sq"] for s in states]
