@@ -27,8 +27,9 @@ With ``--onehot-peers`` (DoorKey only) the peers' networks read MiniGrid's indic
 encoded, as TL-AC's do (:class:`OneHotObs`, tlac.algorithms.encoding), instead of the raw indices
 that SB3's ``MlpPolicy`` reads; the teachers still see the raw observations.
 
-Reported per case: the student alone at 1e4 / 2e4 / 5e4 / 1e5 steps (mean +- std over seeds),
-and per learner the steps and training seconds until the student alone first reaches 90% of
+Reported per case: the student alone at 1e4 / 2e4 / 5e4 / 1e5 steps (mean +- std over seeds)
+beside the training return at the end (the mean of the last :data:`TRAINING_WINDOW` training
+episodes: TL-AC's with its teachers acting, DAgger's mixed, PPO's sampled), and per learner the steps and training seconds until the student alone first reaches 90% of
 the way from the random policy to the best final score among the learners (mean over the
 seeds that reach it; "never" counts the others); one figure per case; and issue 45's
 acceptance per case (:func:`acceptance_row`). Every run is a JSON file under ``--out``/runs
@@ -46,7 +47,7 @@ import os
 import shlex
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
@@ -178,26 +179,47 @@ def make_ppo(case: str, env: Any, seed: int) -> Any:
 
 
 # ------------------------------------------------------------------ measuring
+TRAINING_WINDOW = 20
+"""Training episodes a point's training return averages (the most recent ones ended), as
+TL-AC's episode recorder keeps them."""
+
+
+def recent_mean(returns: Iterable[float]) -> float | None:
+    """The mean of the last :data:`TRAINING_WINDOW` of ``returns`` (None: no episode yet).
+
+    >>> recent_mean([]) is None, recent_mean(range(30))
+    (True, 19.5)
+    """
+    last = list(returns)[-TRAINING_WINDOW:]
+    return float(np.mean(last)) if last else None
+
+
 class Curve:
-    """The student alone every ``every`` steps, with the training seconds spent so far."""
+    """The student alone every ``every`` steps, with the training seconds spent so far and
+    the training return: how the learner's own training episodes went (TL-AC's with its
+    teachers, DAgger's with the teacher acting by beta, BC's demonstrations, PPO's sampled)."""
 
     def __init__(self, case: str, every: int, episodes: int):
         self.case, self.every, self.episodes = case, every, episodes
         self.next = every
-        self.points: list[list[float]] = []  # [steps, student alone, training seconds]
+        # [steps, student alone, training seconds, training return (None: no episode yet)]
+        self.points: list[list[Any]] = []
         self.eval_seconds = 0.0
         self.start = time.perf_counter()
 
     def due(self, steps: int) -> bool:
         return steps >= self.next
 
-    def record(self, steps: int, act_batch: Callable[[np.ndarray], Any]) -> None:
-        """Score the student now (greedy) and move the next evaluation past ``steps``."""
+    def record(
+        self, steps: int, act_batch: Callable[[np.ndarray], Any], training: Iterable[float]
+    ) -> None:
+        """Score the student now (greedy), beside the training episodes' returns so far
+        (``training``, oldest first), and move the next evaluation past ``steps``."""
         t0 = time.perf_counter()
         score = float(evaluate(act_batch, self.case, self.episodes).mean())
         self.eval_seconds += time.perf_counter() - t0
         train_seconds = time.perf_counter() - self.start - self.eval_seconds
-        self.points.append([int(steps), score, round(train_seconds, 2)])
+        self.points.append([int(steps), score, round(train_seconds, 2), recent_mean(training)])
         while self.next <= steps:
             self.next += self.every
 
@@ -235,7 +257,8 @@ def sb3_milestone_callback(curve: Curve, offset: int = 0, view: Encode | None = 
         def _on_step(self) -> bool:
             steps = offset + self.num_timesteps
             if curve.due(steps):
-                curve.record(steps, greedy(self.model, view))
+                training = [info["r"] for info in self.model.ep_info_buffer]
+                curve.record(steps, greedy(self.model, view), training)
             return True
 
     return Milestones()
@@ -246,6 +269,7 @@ def train_tlac(
 ) -> None:
     """TL-AC with its default (the case's preset), ``settings`` on top (``--tlac-setting``)."""
     from tlac import TLAC
+    from tlac.recording import find_episode_recorder
 
     settings = settings or {}
     if is_doorkey(case):  # the named domain: its preset, its teachers by name
@@ -256,8 +280,8 @@ def train_tlac(
         model = TLAC(env, teachers=teachers, seed=seed, **settings)
 
     def after_update(m: Any) -> bool:
-        if curve.due(m.num_timesteps):
-            curve.record(m.num_timesteps, greedy(m))
+        if curve.due(m.num_timesteps):  # the training episodes: teachers included
+            curve.record(m.num_timesteps, greedy(m), find_episode_recorder(m.env).episode_returns)
         return True
 
     model.learn(steps, callback=after_update)
@@ -268,18 +292,25 @@ def train_ppo(case: str, seed: int, steps: int, curve: Curve, view: Encode | Non
     model.learn(steps, callback=sb3_milestone_callback(curve, view=view))
 
 
-def demonstrations(env: Any, teacher: Any, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """``n`` steps of the teacher acting alone: (observations, its actions)."""
-    obs_rows, action_rows = [], []
+def demonstrations(
+    env: Any, teacher: Any, n: int, seed: int
+) -> tuple[np.ndarray, np.ndarray, list[float]]:
+    """``n`` steps of the teacher acting alone: (observations, its actions, the returns of the
+    episodes that ended within them)."""
+    obs_rows, action_rows, returns = [], [], []
     obs, _ = env.reset(seed=seed)
+    episode_return = 0.0
     for _ in range(n):
         action = np.asarray(teacher.predict(obs[None]))[0]
         obs_rows.append(obs)
         action_rows.append(action)
-        obs, _, terminated, truncated, _ = env.step(action)
+        obs, reward, terminated, truncated, _ = env.step(action)
+        episode_return += float(reward)
         if terminated or truncated:
+            returns.append(episode_return)
+            episode_return = 0.0
             obs, _ = env.reset()
-    return np.asarray(obs_rows), np.asarray(action_rows)
+    return np.asarray(obs_rows), np.asarray(action_rows), returns
 
 
 def clone_steps(
@@ -325,10 +356,10 @@ def train_bc_ppo(
     env = make_env(case)
     model = make_ppo(case, peer_env(env, view), seed)
     teacher = best_teacher(case, env, seed, teacher_name)
-    obs, actions = demonstrations(make_env(case), teacher, demo_steps, seed)
+    obs, actions, demo_returns = demonstrations(make_env(case), teacher, demo_steps, seed)
     rng = np.random.default_rng(seed)
     clone_steps(model.policy, obs, actions, BC_EPOCHS * len(obs) // MINIBATCH, rng, view)
-    curve.record(demo_steps, greedy(model, view))
+    curve.record(demo_steps, greedy(model, view), demo_returns)  # the teacher's episodes
     model.learn(steps - demo_steps, callback=sb3_milestone_callback(curve, demo_steps, view))
 
 
@@ -343,6 +374,7 @@ def train_dagger(
     data_actions: list[np.ndarray] = []
     obs, _ = env.reset(seed=seed)
     done_steps, round_index = 0, 0
+    episode_return, returns = 0.0, []  # the training episodes (teacher and student mixed)
     while done_steps < steps:
         beta = max(0.0, 1.0 - round_index / DAGGER_RAMPDOWN)
         for _ in range(min(DAGGER_ROUND, steps - done_steps)):
@@ -354,8 +386,11 @@ def train_dagger(
             else:
                 seen = obs if view is None else view(obs[None])[0]
                 act = policy.predict(seen, deterministic=False)[0]
-            obs, _, terminated, truncated, _ = env.step(act)
+            obs, reward, terminated, truncated, _ = env.step(act)
+            episode_return += float(reward)
             if terminated or truncated:
+                returns.append(episode_return)
+                episode_return = 0.0
                 obs, _ = env.reset()
             done_steps += 1
         clone_steps(
@@ -368,7 +403,7 @@ def train_dagger(
         )
         round_index += 1
         if curve.due(done_steps) or done_steps >= steps:
-            curve.record(done_steps, greedy(policy, view))
+            curve.record(done_steps, greedy(policy, view), returns)
 
 
 def warm_up() -> None:
@@ -421,9 +456,16 @@ def score_at(curve: list[list[float]], step: int) -> float:
     return before[-1] if before else float("nan")
 
 
+def training_at_end(run: dict) -> float:
+    """The training return at the run's last evaluation (NaN: none recorded, as in runs made
+    before 2026-11-28, or no training episode ended)."""
+    last = run["curve"][-1]
+    return float("nan") if len(last) < 4 or last[3] is None else float(last[3])
+
+
 def first_reach(curve: list[list[float]], threshold: float) -> tuple[float, float] | None:
     """(steps, training seconds) of the first evaluation at or above ``threshold``."""
-    for steps, score, seconds in curve:
+    for steps, score, seconds, *_ in curve:  # (runs before 2026-11-28: no training return)
         if score >= threshold:
             return steps, seconds
     return None
@@ -447,13 +489,15 @@ def finals_and_threshold(
 
 
 def case_table(case: str, runs: dict[str, list[dict]], random_policy: float) -> list[str]:
-    """The rows of one case: student alone at the milestones, steps/seconds to 90%."""
+    """The rows of one case: student alone at the milestones, the training return at the end,
+    steps/seconds to 90%."""
     finals, threshold = finals_and_threshold(runs, random_policy)
     best = max(finals.values())
     d = 3 if is_doorkey(case) else 1  # DoorKey's returns lie in [0, 1]
     rows = []
     for learner, rs in runs.items():
         cells = [_mean_std([score_at(r["curve"], m) for r in rs], d) for m in MILESTONES]
+        cells.append(_mean_std([training_at_end(r) for r in rs], d))
         reached = [first_reach(r["curve"], threshold) for r in rs]
         hit = [x for x in reached if x is not None]
         never = len(reached) - len(hit)
@@ -468,7 +512,7 @@ def case_table(case: str, runs: dict[str, list[dict]], random_policy: float) -> 
         )
     rows.append(
         f"| {case} | (90% of the way from random {random_policy:.{d}f} to the best final "
-        f"{best:.{d}f}: {threshold:.{d}f}) | | | | | | | |"
+        f"{best:.{d}f}: {threshold:.{d}f}) | | | | | | | | |"
     )
     return rows
 
@@ -542,8 +586,9 @@ def plot_case(out: Path, case: str, runs: dict[str, list[dict]], random_policy: 
 
 def report(out: Path, cases: list[str]) -> str:
     header = (
-        "| case | learner | seeds | 1e4 | 2e4 | 5e4 | 1e5 | steps to 90% | training seconds to 90% |\n"
-        "|---|---|---|---|---|---|---|---|---|"
+        "| case | learner | seeds | 1e4 | 2e4 | 5e4 | 1e5 | training return at the end "
+        "| steps to 90% | training seconds to 90% |\n"
+        "|---|---|---|---|---|---|---|---|---|---|"
     )
     verdicts = [
         "| case | student alone at the end >= every peer | first to 90% (training seconds), "

@@ -49,8 +49,10 @@ def test_behaviour_cloning_copies_a_teacher():
         def predict(self, batch):
             return np.zeros(len(batch), dtype=np.int64)
 
-    obs, actions = peers.demonstrations(env, Left(), 300, seed=0)
+    obs, actions, returns = peers.demonstrations(env, Left(), 300, seed=0)
     assert obs.shape == (300, 4) and (actions == 0).all()
+    # always left topples the pole within a few steps: many short episodes, one point a step
+    assert len(returns) >= 15 and sum(returns) <= 300 and max(returns) < 20
     policy = PPO("MlpPolicy", env, seed=0, device="cpu").policy
     peers.clone_steps(policy, obs, actions, 200, np.random.default_rng(0))
     assert (policy.predict(obs, deterministic=True)[0] == 0).all()
@@ -121,7 +123,7 @@ def test_onehot_peers_read_what_tlacs_networks_read_and_clone_through_it():
         def predict(self, batch):
             return np.full(len(batch), 2, dtype=np.int64)
 
-    demo_obs, actions = peers.demonstrations(raw_env, Forward(), 200, seed=0)
+    demo_obs, actions, _ = peers.demonstrations(raw_env, Forward(), 200, seed=0)
     policy = PPO("MlpPolicy", wrapped, seed=0, device="cpu").policy
     peers.clone_steps(policy, demo_obs, actions, 200, np.random.default_rng(0), view)
     assert (policy.predict(view(demo_obs), deterministic=True)[0] == 2).all()
@@ -173,3 +175,32 @@ def test_demo_steps_are_checked_only_where_bc_then_ppo_runs(monkeypatch, tmp_pat
         "--demo-steps (bc-ppo's demonstrations) must be between 0 and --steps (2048), got 10000"
         in (capsys.readouterr().err)
     )
+
+
+def test_every_learner_records_its_training_return_beside_the_student_alone():
+    """Each evaluation point is [steps, student alone, training seconds, training return]: the
+    recent training episodes of the learner itself. On the scripted CartPole the first DAgger
+    round is the teacher's (beta = 1) and BC then PPO's first point follows the teacher's
+    demonstrations, so both are near the PD controller's 500; a fresh PPO samples near random."""
+    import argparse
+
+    args = argparse.Namespace(
+        steps=2048,
+        eval_every=2048,
+        episodes=2,
+        demo_steps=1024,
+        tlac_setting=[],
+        onehot_peers=False,
+    )
+    first = {}
+    for learner in peers.LEARNERS:
+        result = peers.train_one("CartPole-v1", learner, 0, args, "cartpole_pd")
+        first[learner] = result["curve"][0]
+        assert all(len(point) == 4 for point in result["curve"])
+    assert first["dagger"][3] > 400 and first["bc-ppo"][3] > 400
+    assert first["ppo"][3] < 100
+    assert first["tlac"][3] is not None
+    row = peers.case_table(
+        "CartPole-v1", {lr: [{"steps": 2048, "curve": [p]}] for lr, p in first.items()}, 22.8
+    )
+    assert row[0].split("|")[8].strip() == f"{first['tlac'][3]:.1f} +- 0.0"
