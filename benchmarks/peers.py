@@ -456,11 +456,18 @@ def score_at(curve: list[list[float]], step: int) -> float:
     return before[-1] if before else float("nan")
 
 
-def training_at_end(run: dict) -> float:
-    """The training return at the run's last evaluation (NaN: none recorded, as in runs made
-    before 2026-11-28, or no training episode ended)."""
-    last = run["curve"][-1]
+def training_at(curve: list[list[Any]], step: int) -> float:
+    """The training return at the last evaluation at or before ``step``, as :func:`score_at`
+    reads the student's (NaN: none recorded, as in runs made before 2026-11-28, or no training
+    episode ended yet)."""
+    before = [p for p in curve if p[0] <= step + DAGGER_ROUND]
+    last = before[-1] if before else []
     return float("nan") if len(last) < 4 or last[3] is None else float(last[3])
+
+
+def training_at_end(run: dict) -> float:
+    """The training return at the run's last evaluation (:func:`training_at`)."""
+    return training_at(run["curve"], run["steps"])
 
 
 def first_reach(curve: list[list[float]], threshold: float) -> tuple[float, float] | None:
@@ -572,13 +579,17 @@ def plot_case(out: Path, case: str, runs: dict[str, list[dict]], random_policy: 
         grid = sorted({p[0] for r in rs for p in r["curve"]})
         scores = np.array([[score_at(r["curve"], s) for s in grid] for r in rs])
         mean, std = np.nanmean(scores, 0), np.nanstd(scores, 0)
-        ax.plot(grid, mean, label=learner)
+        (line,) = ax.plot(grid, mean, label=f"{learner}, student alone")
         ax.fill_between(grid, mean - std, mean + std, alpha=0.2)
+        training = np.array([[training_at(r["curve"], s) for s in grid] for r in rs])
+        if np.isfinite(training).any(axis=0).all():  # runs made before 2026-11-28 have none
+            mean_training = np.nanmean(training, 0)
+            ax.plot(grid, mean_training, "--", color=line.get_color(), label=f"{learner}, training")
     ax.axhline(random_policy, color="grey", linestyle=":", label="random policy")
     ax.set_xlabel("environment steps")
-    ax.set_ylabel("student alone (greedy)")
+    ax.set_ylabel("return (student alone: greedy)")
     ax.set_title(case)
-    ax.legend()
+    ax.legend(fontsize=7, ncol=2, loc="lower right")
     fig.tight_layout()
     fig.savefig(out / f"{case}.png", dpi=100)
     plt.close(fig)

@@ -23,6 +23,10 @@ def test_score_at_takes_the_last_evaluation_within_one_rollout():
     assert peers.score_at(curve, 10_000) == -300.0
     assert peers.score_at(curve, 50_000) == -90.0  # 51,200 is within one 2,048-step rollout
     assert peers.score_at(curve, 40_000) == -150.0
+    assert np.isnan(peers.training_at(curve, 50_000))  # points made before the training return
+    points = [[10240, -300.0, 5.0, -250.0], [20480, -150.0, 10.0, None]]
+    assert peers.training_at(points, 10_000) == -250.0
+    assert np.isnan(peers.training_at(points, 20_480))  # no training episode had ended
 
 
 def test_first_reach_and_the_ninety_percent_threshold():
