@@ -29,11 +29,12 @@ that SB3's ``MlpPolicy`` reads; the teachers still see the raw observations.
 
 Reported per case: the student alone at 1e4 / 2e4 / 5e4 / 1e5 steps (mean +- std over seeds)
 beside the training return at the end (the mean of the last :data:`TRAINING_WINDOW` training
-episodes: TL-AC's with its teachers acting, DAgger's mixed, PPO's sampled), and per learner the steps and training seconds until the student alone first reaches 90% of
-the way from the random policy to the best final score among the learners (mean over the
-seeds that reach it; "never" counts the others); one figure per case; and issue 45's
-acceptance per case (:func:`acceptance_row`). Every run is a JSON file under ``--out``/runs
-(rerunning skips it).
+episodes: TL-AC's with its teachers acting, DAgger's mixed, PPO's sampled), and per learner
+the steps and training seconds until the student alone first reaches 90% of the way from the
+random policy to the best final score among the learners (mean over the seeds that reach it;
+"never" counts the others); one figure per case (the student alone, and the training return
+dashed); and issue 45's acceptance per case (:func:`acceptance_row`). Every run is a JSON
+file under ``--out``/runs (rerunning skips it).
 
     .venv/bin/python benchmarks/peers.py --cases MountainCar-v0+weak Acrobot-v1+weak --seeds 0 1 2 3 4
     .venv/bin/python benchmarks/peers.py --cases DoorKey+1optimal-2random DoorKey+L-R --seeds 0 1 2
@@ -583,8 +584,13 @@ def plot_case(out: Path, case: str, runs: dict[str, list[dict]], random_policy: 
         ax.fill_between(grid, mean - std, mean + std, alpha=0.2)
         training = np.array([[training_at(r["curve"], s) for s in grid] for r in rs])
         if np.isfinite(training).any(axis=0).all():  # runs made before 2026-11-28 have none
-            mean_training = np.nanmean(training, 0)
-            ax.plot(grid, mean_training, "--", color=line.get_color(), label=f"{learner}, training")
+            ax.plot(
+                grid,
+                np.nanmean(training, 0),
+                "--",
+                color=line.get_color(),
+                label=f"{learner}, training",
+            )
     ax.axhline(random_policy, color="grey", linestyle=":", label="random policy")
     ax.set_xlabel("environment steps")
     ax.set_ylabel("return (student alone: greedy)")
