@@ -451,19 +451,24 @@ def train_one(
 
 
 # ------------------------------------------------------------------ the report
+def point_at(curve: list[list[Any]], step: int) -> list[Any]:
+    """The last evaluation at or before ``step`` (within one rollout after it: TL-AC's and
+    DAgger's evaluations fall at the end of their 2,048-step rollouts); [] if none yet."""
+    before = [p for p in curve if p[0] <= step + DAGGER_ROUND]
+    return before[-1] if before else []
+
+
 def score_at(curve: list[list[float]], step: int) -> float:
     """The student alone at the last evaluation at or before ``step`` (NaN: none yet)."""
-    before = [p[1] for p in curve if p[0] <= step + DAGGER_ROUND]  # TL-AC's, DAgger's rollouts
-    return before[-1] if before else float("nan")
+    point = point_at(curve, step)
+    return point[1] if point else float("nan")
 
 
 def training_at(curve: list[list[Any]], step: int) -> float:
-    """The training return at the last evaluation at or before ``step``, as :func:`score_at`
-    reads the student's (NaN: none recorded, as in runs made before 2026-11-28, or no training
-    episode ended yet)."""
-    before = [p for p in curve if p[0] <= step + DAGGER_ROUND]
-    last = before[-1] if before else []
-    return float("nan") if len(last) < 4 or last[3] is None else float(last[3])
+    """The training return at the last evaluation at or before ``step`` (NaN: none recorded,
+    as in runs made before 2026-11-28, or no training episode ended yet)."""
+    point = point_at(curve, step)
+    return float("nan") if len(point) < 4 or point[3] is None else float(point[3])
 
 
 def training_at_end(run: dict) -> float:
