@@ -463,6 +463,40 @@ def test_the_copy_is_weaned_against_the_best_teacher_alone():
     assert solo.weaning == pytest.approx(0.35)
 
 
+def test_teachers_that_show_nothing_above_the_floor_are_not_copied():
+    """Issue 63: every teacher led MIN_LED_EPISODES (3) episodes at the untrained student's
+    floor (-500, a sparse goal never reached): nothing to copy (weaning 1) and every episode
+    the student's own (probability 1), where before the led episodes at the floor read as "no
+    evidence" (weaning 0: a full copy). Teacher 0 then leads -300, -300 and -200: its mean
+    must beat the floor by two standard errors (-450 - 2 x 43.3 and -420 - 2 x 43.8: not yet;
+    -383.3 - 2 x 49.5 = -482.4 > -500: help), and the weaning is competence against it."""
+    solo = SoloEpisodes(1, budget=0.2, seed=0, min_episodes=1, n_teachers=2, teacher_share=0.3)
+    solo.active[:] = True
+    solo.end(0, -500.0)  # the floor
+    solo.active[:] = False
+
+    def lead(teacher: int, episode_return: float) -> None:
+        solo.leader[0] = teacher
+        solo.end(0, episode_return)
+
+    for _ in range(3):
+        lead(0, -500.0)
+    for _ in range(2):
+        lead(1, -500.0)
+    assert not solo.no_teacher_helps  # teacher 1 has led 2 episodes only
+    assert solo.weaning == 0.0 and solo.probability == pytest.approx(0.2)
+    lead(1, -500.0)
+    assert solo.no_teacher_helps
+    assert solo.weaning == 1.0 and solo.probability == 1.0
+    lead(0, -300.0)
+    assert solo.no_teacher_helps
+    lead(0, -300.0)
+    assert solo.no_teacher_helps
+    lead(0, -200.0)
+    assert not solo.no_teacher_helps
+    assert solo.weaning == 0.0 and solo.probability == pytest.approx(0.2)  # solo still -500
+
+
 def test_advice_buffer_wraps_and_samples_aligned_rows():
     buf = AdviceBuffer(capacity=5, obs_dim=1, advice_shape=(2,), advice_dtype=torch.int64)
     for start in range(0, 12, 4):
@@ -533,6 +567,31 @@ def test_doorkey_student_alone_succeeds():
     model.learn(100_000, progress_bar=False)
     returns = evaluate_student(model, get_domain("doorkey"), 50, seed=10_000)
     assert returns.mean() >= 0.85, returns
+
+
+@pytest.mark.slow
+def test_a_useless_teacher_leaves_the_student_at_ppo_alones_level_on_a_sparse_task():
+    """Issue 63: Acrobot-v1 (-1 a step until the tip swings above the line) with a teacher that
+    never applies torque (it never swings up: -500) beside a random one. SB3 PPO alone reaches
+    -80 to -85 in 1e5 steps; the default's student copied the deterministic teacher and stayed
+    at -500 (-415 at best, seed 0) until its led episodes at the floor were read as nothing to
+    copy. 30 greedy episodes, the student alone."""
+    env = gym.make("Acrobot-v1")
+    space = env.action_space
+    space.seed(0)
+    model = TLAC(env, teachers=[lambda obs: 1, lambda obs: space.sample()], seed=0)
+    model.learn(100_000, progress_bar=False)
+    returns = []
+    for episode in range(30):
+        obs, _ = env.reset(seed=10_000 + episode)
+        done, total = False, 0.0
+        while not done:
+            action, _ = model.predict(obs, deterministic=True)
+            obs, reward, terminated, truncated, _ = env.step(int(action))
+            total += float(reward)
+            done = terminated or truncated
+        returns.append(total)
+    assert np.mean(returns) >= -120.0, returns
 
 
 def test_capped_high_level_entropy_hand_checked():

@@ -59,6 +59,30 @@ def competence(solo: float, assisted: float, floor: float) -> float:
     return float(np.clip((solo - floor) / (assisted - floor), 0.0, 1.0))
 
 
+HELP_MARGIN = 2.0
+"""Standard errors by which a teacher's led episodes must beat the student's floor to count as
+help (:func:`shows_help`)."""
+MIN_LED_EPISODES = 3
+"""Led episodes of every teacher before the teachers can be judged to show nothing."""
+
+
+def shows_help(led_sum: float, led_square_sum: float, led_count: int, floor: float) -> bool:
+    """Whether a teacher's led episodes (``led_count`` returns, their sum and sum of squares)
+    show a return above ``floor`` (the untrained student's) by more than ``HELP_MARGIN``
+    standard errors of their mean: something the student does not reach alone already.
+
+    >>> shows_help(-1500.0, 750_000.0, 3, floor=-500.0)   # three episodes at -500: nothing
+    False
+    >>> shows_help(-1200.0, 500_000.0, 3, floor=-500.0)   # -500, -400, -300: mean -400, se 47
+    True
+    >>> shows_help(-2950.0, 1_452_500.0, 6, floor=-500.0)  # five -500s and one -450: se 7.6
+    False
+    """
+    mean = led_sum / led_count
+    variance = max(led_square_sum / led_count - mean * mean, 0.0)
+    return bool(mean - HELP_MARGIN * np.sqrt(variance / led_count) > floor)
+
+
 HANDOVER_ENTROPY = 0.05
 """The low level's entropy coefficient that weaned imitation adds at full competence."""
 
@@ -193,6 +217,7 @@ class SoloEpisodes:
         self.teacher_share = float(teacher_share)
         self.leader = np.full(n_envs, -1, dtype=np.int64)  # the leading teacher; -1: none
         self.led_sums = np.zeros(n_teachers)  # per teacher: its led episodes' returns, summed
+        self.led_squares = np.zeros(n_teachers)  # ... and their squares, summed
         self.led_counts = np.zeros(n_teachers, dtype=np.int64)
         self.led_low, self.led_high = np.inf, -np.inf  # the range of led returns (UCB1's scale)
         self.active = np.zeros(n_envs, dtype=bool)
@@ -217,17 +242,47 @@ class SoloEpisodes:
         return self._competence_against(self.best_assisted)
 
     @property
+    def no_teacher_helps(self) -> bool:
+        """Every teacher has led ``MIN_LED_EPISODES`` episodes or more, and none of them showed
+        a return above the student's floor (:func:`shows_help`): what the teachers do alone,
+        the untrained student does already. A teacher that never reaches a sparse goal, or an
+        adversarial one, would otherwise be copied in full (its led episodes at the floor read
+        as "no evidence yet"), and the copy takes away the random exploration that gives the
+        student its first successes (Acrobot, a teacher that never swings up: -500 against
+        PPO alone's -82, issue 63)."""
+        if (
+            self.teacher_share <= 0
+            or not np.isfinite(self.floor)
+            or len(self.led_counts) == 0
+            or (self.led_counts < MIN_LED_EPISODES).any()
+        ):
+            return False
+        return not any(
+            shows_help(total, squares, int(count), self.floor)
+            for total, squares, count in zip(
+                self.led_sums, self.led_squares, self.led_counts, strict=True
+            )
+        )
+
+    @property
     def weaning(self) -> float:
         """Competence against the best teacher ALONE (the mean return of its led episodes),
         the weight the imitation loses (``wean_imitation``); :attr:`competence` (against the
-        assisted episodes) while no teacher has led one."""
+        assisted episodes) while no teacher has led one; 1 (nothing to copy) when
+        :attr:`no_teacher_helps`."""
         led = self.led_counts > 0
         if not led.any():
             return self.competence
+        if self.no_teacher_helps:
+            return 1.0
         return self._competence_against(float(np.max(self.led_sums[led] / self.led_counts[led])))
 
     @property
     def probability(self) -> float:
+        """The share of episodes the student plays alone: :func:`solo_probability` of its
+        competence, or every episode when :attr:`no_teacher_helps`."""
+        if self.no_teacher_helps:
+            return 1.0
         return solo_probability(self.competence, self.budget)
 
     def start(self, episode_starts: np.ndarray) -> np.ndarray:
@@ -261,6 +316,7 @@ class SoloEpisodes:
             teacher = self.leader[env_index]
             if teacher >= 0:
                 self.led_sums[teacher] += episode_return
+                self.led_squares[teacher] += episode_return**2
                 self.led_counts[teacher] += 1
                 self.led_low = min(self.led_low, float(episode_return))
                 self.led_high = max(self.led_high, float(episode_return))
