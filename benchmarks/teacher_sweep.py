@@ -404,6 +404,17 @@ def seconds_cell(key: tuple[int, float]) -> str:
     return f"{key[1]:.0f} s" + (f" ({key[0]} never)" if key[0] else "")
 
 
+def mean_steps_to(runs: list[dict], threshold: float) -> str:
+    """The mean steps at which the runs' students alone first reach ``threshold`` (those that
+    do), or "never".
+
+    >>> mean_steps_to([{"curve": [[4096, -300.0, 2.0], [8192, -90.0, 4.0]]}], -100.0)
+    '8192'
+    """
+    hits = [h[0] for h in (peers.first_reach(r["curve"], threshold) for r in runs) if h]
+    return f"{np.mean(hits):.0f}" if hits else "never"
+
+
 def env_rows(out: Path, env_id: str, seeds: list[int]) -> tuple[list[str], list[dict]]:
     """The report's rows of one environment and the points of its figure."""
     teachers = json.loads((out / "teachers" / f"{env_id}.json").read_text())
@@ -428,6 +439,7 @@ def env_rows(out: Path, env_id: str, seeds: list[int]) -> tuple[list[str], list[
             if not reaches
             else f"{seconds_cell(ours)} / {seconds_cell(theirs)}"
             + (f": {ratio:.2f}x" if np.isfinite(ratio) and ratio > 0 else "")
+            + f" ({mean_steps_to(runs, threshold)} / {mean_steps_to(ppo_runs, threshold)} steps)"
         )
         time_ok = not timed or not reaches or ratio <= TIME_FACTOR
         rows.append(

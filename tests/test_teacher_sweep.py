@@ -1,0 +1,70 @@
+"""The teacher-quality sweep (benchmarks/teacher_sweep.py, issue 63): its teachers and its
+verdicts, on hand-made cases (the sweep itself is hours of training)."""
+
+from __future__ import annotations
+
+import doctest
+import importlib.util
+import sys
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+
+_DIR = Path(__file__).resolve().parents[1] / "benchmarks"
+sys.path.insert(0, str(_DIR))
+_spec = importlib.util.spec_from_file_location("teacher_sweep", _DIR / "teacher_sweep.py")
+sweep = importlib.util.module_from_spec(_spec)
+sys.modules["teacher_sweep"] = sweep  # (a dataclass looks its module up there)
+_spec.loader.exec_module(sweep)
+
+
+def test_the_doctests_hold():
+    assert doctest.testmod(sweep).failed == 0
+
+
+@pytest.mark.parametrize("env_id", ["CartPole-v1", "Pendulum-v1", "MountainCar-v0"])
+def test_a_saved_teacher_acts_as_the_model_it_was_saved_from(tmp_path, env_id):
+    """The acting weights alone (PPO's policy, DQN's Q-network, SAC's actor) rebuild a teacher
+    whose greedy actions are the model's."""
+    model = sweep.reference_model(env_id)
+    with torch.no_grad():  # move the weights away from the seed's initialisation
+        for p in model.policy.parameters():
+            p.add_(0.1 * torch.randn_like(p))
+    torch.save(sweep.acting_state(model), tmp_path / "t.pt")
+    loaded = sweep.load_teacher_model(env_id, tmp_path / "t.pt")
+    space = gym.make(env_id).observation_space
+    space.seed(0)
+    obs = np.stack([space.sample() for _ in range(32)])
+    expected = model.predict(obs, deterministic=True)[0]
+    np.testing.assert_array_equal(loaded.predict(obs, deterministic=True)[0], expected)
+
+
+def test_the_adversarial_teacher_plays_what_its_network_ranks_worst():
+    ppo = sweep.reference_model("CartPole-v1")
+    obs = np.array([[0.0, 0.0, 0.05, 0.3], [0.0, 0.0, -0.05, -0.3]], dtype=np.float32)
+    greedy = ppo.predict(obs, deterministic=True)[0]
+    np.testing.assert_array_equal(sweep.Adversarial(ppo).predict(obs), 1 - greedy)  # 2 actions
+    dqn = sweep.reference_model("MountainCar-v0")
+    obs = np.array([[-0.5, 0.0], [-0.3, 0.02]], dtype=np.float32)
+    with torch.no_grad():
+        q = dqn.q_net(torch.as_tensor(obs)).numpy()
+    np.testing.assert_array_equal(sweep.Adversarial(dqn).predict(obs), q.argmin(1))
+    sac = sweep.reference_model("Pendulum-v1")
+    obs = np.array([[1.0, 0.0, 0.5]], dtype=np.float32)
+    action = sac.predict(obs, deterministic=True)[0]
+    np.testing.assert_allclose(sweep.Adversarial(sac).predict(obs), -action)  # box [-2, 2]
+
+
+def test_time_verdicts():
+    """TL-AC at 90% in 12 s on every seed against PPO's 10 s: 1.2x; a seed of TL-AC that never
+    gets there where all of PPO's do: inf; neither ever: 1."""
+    reach = lambda seconds: {"curve": [[4096, -400.0, seconds / 2], [8192, -90.0, seconds]]}  # noqa: E731
+    never = {"curve": [[4096, -400.0, 5.0], [8192, -300.0, 10.0]]}
+    ratio, _, _ = sweep.seconds_ratio([reach(12.0)] * 2, [reach(10.0)] * 2, -100.0)
+    assert ratio == pytest.approx(1.2)
+    assert sweep.seconds_ratio([reach(8.0), never], [reach(10.0)] * 2, -100.0)[0] == np.inf
+    assert sweep.seconds_ratio([never], [never], -100.0)[0] == 1.0
+    assert sweep.seconds_ratio([reach(30.0)], [never], -100.0)[0] == 0.0
