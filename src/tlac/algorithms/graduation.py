@@ -64,6 +64,9 @@ HELP_MARGIN = 2.0
 help (:func:`shows_help`)."""
 MIN_LED_EPISODES = 3
 """Led episodes of every teacher before the teachers can be judged to show nothing."""
+RECHECK_SHARE = 0.1
+"""The share of episodes a teacher still leads when none has shown help, so that one judged on
+a few unlucky episodes (a sparse goal reached now and then) can show its help later."""
 
 
 def shows_help(led_sum: float, led_square_sum: float, led_count: int, floor: float) -> bool:
@@ -280,10 +283,19 @@ class SoloEpisodes:
     @property
     def probability(self) -> float:
         """The share of episodes the student plays alone: :func:`solo_probability` of its
-        competence, or every episode when :attr:`no_teacher_helps`."""
+        competence; when :attr:`no_teacher_helps`, all but ``RECHECK_SHARE`` of them (the others
+        led by a teacher: :meth:`start`) until its solo returns beat every teacher's led ones,
+        then every one."""
         if self.no_teacher_helps:
-            return 1.0
+            return 1.0 if self._solo_beats_every_led_mean() else 1.0 - RECHECK_SHARE
         return solo_probability(self.competence, self.budget)
+
+    def _solo_beats_every_led_mean(self) -> bool:
+        """Whether the recent solo returns' mean is above every teacher's led mean: a teacher
+        can show nothing the student needs any more (a useless teacher's led episodes, played
+        to the time limit, would otherwise cost ever more steps as the student's get shorter)."""
+        led_means = self.led_sums / np.maximum(self.led_counts, 1)
+        return bool(self.solo_returns) and float(np.mean(self.solo_returns)) > led_means.max()
 
     def start(self, episode_starts: np.ndarray) -> np.ndarray:
         """Draw solo or assisted for every environment whose episode starts now; returns the
@@ -292,8 +304,11 @@ class SoloEpisodes:
         if len(starting):
             self.active[starting] = self.rng.random(len(starting)) < self.probability
             if self.teacher_share > 0:  # (no draw otherwise: the same stream as before)
+                # where no teacher has shown help, every episode the student does not play is
+                # led by one, so that the teachers' evidence keeps coming (RECHECK_SHARE)
+                share = 1.0 if self.no_teacher_helps else self.teacher_share
                 for i in starting:
-                    led = not self.active[i] and self.rng.random() < self.teacher_share
+                    led = not self.active[i] and self.rng.random() < share
                     self.leader[i] = self._ucb1_teacher() if led else -1
         return self.active
 
