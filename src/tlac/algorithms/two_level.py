@@ -227,8 +227,10 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         return TLACConfig.from_settings({k: v for k, v in hyperparameters.items() if k != "preset"})
 
     # ----------------------------------------------------------------- Algorithm 1
-    def collect(self) -> Rollout:
-        """Collect ``n_steps`` transitions per environment (Algorithm 1, lines 11-23)."""
+    def collect(self, callbacks: LearnCallbacks | None = None) -> Rollout | None:
+        """Collect ``n_steps`` transitions per environment (Algorithm 1, lines 11-23).
+        ``callbacks``: ``learn``'s, whose SB3 callbacks see every step as in SB3's
+        ``collect_rollouts``; None is returned when one of them stopped the collection."""
         cfg = self.config
         T, E = cfg.n_steps, self.n_envs
         ro = Rollout.empty(T, E, self.obs_dim, self.action_space.shape, self.discrete)
@@ -236,6 +238,9 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             self._last_obs = self.env.reset()
             self._episode_starts = np.ones(E, dtype=bool)
             self._episode_returns = np.zeros(E)
+        sb3 = callbacks if callbacks is not None and callbacks.sb3 else None
+        if sb3 is not None:
+            sb3.rollout_start()
         if cfg.use_sde:
             self._resample_sde_noise()
         vec_normalize = unwrap_vec_normalize(self.env)  # the user's: teachers get raw observations
@@ -263,8 +268,11 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             teacher_obs = self._last_obs if vec_normalize is None else original_obs(vec_normalize)
             actions = self._apply_teachers(choices, teacher_obs, actions)  # line 18
 
-            new_obs, rewards, dones, infos = self.env.step(self._to_env_actions(actions))  # line 19
+            clipped_actions = self._to_env_actions(actions)  # (SB3's name, for callbacks)
+            new_obs, rewards, dones, infos = self.env.step(clipped_actions)  # line 19
             self.num_timesteps += E
+            # SB3's callbacks see the step (the environments' rewards) before tlac's bookkeeping
+            stopped = sb3 is not None and not sb3.step(self._sb3_locals(locals(), ro, t))
             rewards = np.asarray(rewards, dtype=np.float32).copy()
             self._episode_returns += (
                 rewards if vec_normalize is None else original_rewards(vec_normalize)
@@ -277,6 +285,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                     # time-limit truncation is not termination: bootstrap from V(final obs)
                     rewards[i] += cfg.gamma * float(self._act_heads(final)[2][0])
                 self.selector.episode_end(int(i), float(self._episode_returns[i]))
+                self._record_episode_info(infos[i])  # SB3's ep_info_buffer
                 if self.solo is not None:
                     self._deploy_if_worth(self.solo.end(int(i), float(self._episode_returns[i])))
                 self._episode_returns[i] = 0.0
@@ -293,13 +302,31 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             ro.log_prob_high[t] = np_log_softmax(high_logits)[np.arange(E), choices]
             self._last_obs = new_obs
             self._episode_starts = np.asarray(dones, dtype=bool)
+            if stopped:  # as SB3: no update on a rollout that a callback cut short
+                return None
         last_values = self._act_heads(self._last_obs)[2]
         ro.advantages, ro.returns = compute_gae(
             ro.rewards, ro.values, ro.dones, last_values, cfg.gamma, cfg.gae_lambda
         )
         if self.recorder is not None:
             self.recorder.record_selections(self.num_timesteps, ro.choices, ro.obs)
+        if sb3 is not None:
+            sb3.rollout_end(self._sb3_locals(locals(), ro, T))
         return ro
+
+    def _sb3_locals(self, local_vars: dict[str, Any], ro: Rollout, n_steps: int) -> dict[str, Any]:
+        """:meth:`collect`'s variables, with the names of SB3's ``collect_rollouts`` that they
+        lack, as SB3 callbacks read them in ``self.locals``: ``env`` (``get_env()``),
+        ``callback``, ``rollout_buffer`` (this rollout, filled so far), ``n_rollout_steps`` and
+        ``n_steps`` (the steps collected before this one)."""
+        return {
+            **local_vars,
+            "env": self.get_env(),
+            "callback": local_vars["callbacks"],
+            "rollout_buffer": ro,
+            "n_rollout_steps": self.config.n_steps,
+            "n_steps": n_steps,
+        }
 
     def update(self, ro: Rollout, progress_remaining: float) -> dict[str, float]:
         """Epochs of minibatch updates of both levels and the shared critic (lines 5-9)."""
@@ -687,9 +714,20 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         if self.torch_threads is not None:
             torch.set_num_threads(self.torch_threads)
         t0, last_bar = time.time(), 0.0
-        callbacks = LearnCallbacks(callback, self)
+        self._new_info_buffers(reset_num_timesteps)
+        learn_locals = {  # SB3's names, as its callbacks read them at on_training_start
+            "total_timesteps": end_steps,
+            "callback": callback,
+            "log_interval": log_interval,
+            "tb_log_name": tb_log_name,
+            "reset_num_timesteps": reset_num_timesteps,
+            "progress_bar": progress_bar,
+        }
+        callbacks = LearnCallbacks(callback, self, learn_locals, per_step=True)
         while self.num_timesteps < end_steps:
-            ro = self.collect()
+            ro = self.collect(callbacks)
+            if ro is None:  # an SB3 callback stopped training
+                break
             counts = np.bincount(ro.choices.reshape(-1), minlength=self.n_choices)
             usage += counts
             logged_usage += counts

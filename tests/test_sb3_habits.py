@@ -1,0 +1,134 @@
+"""What stable-baselines3 users do out of habit works on TL-AC (issue 65): SB3's own callbacks
+and callbacks reading ``self.locals`` at every step, ``model.ep_info_buffer``."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+from stable_baselines3.common.callbacks import (
+    BaseCallback,
+    ProgressBarCallback,
+    StopTrainingOnMaxEpisodes,
+)
+from stable_baselines3.common.vec_env import DummyVecEnv
+
+from tlac import TLAC
+
+SMALL = dict(n_steps=32, batch_size=32)
+RICH_IS_EXPERIMENTAL = pytest.mark.filterwarnings("ignore:rich is experimental")
+
+
+class Succeeds(gym.Wrapper):
+    """CartPole that says, at the end of an episode, whether the pole stood 20 steps."""
+
+    def reset(self, **kwargs: Any) -> Any:
+        self.steps = 0
+        return self.env.reset(**kwargs)
+
+    def step(self, action: Any) -> Any:
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        self.steps += 1
+        if terminated or truncated:
+            info = {**info, "is_success": self.steps >= 20}
+        return obs, reward, terminated, truncated, info
+
+
+def cartpole(n: int = 2) -> DummyVecEnv:
+    venv = DummyVecEnv([lambda: Succeeds(gym.make("CartPole-v1")) for _ in range(n)])
+    venv.seed(0)
+    return venv
+
+
+def left(obs: np.ndarray) -> int:
+    """A poor teacher: always push left (short episodes)."""
+    return 0
+
+
+def model(n_envs: int = 2, **settings: Any) -> TLAC:
+    torch.set_num_threads(1)
+    return TLAC(cartpole(n_envs), teachers=[left], seed=0, **{**SMALL, **settings})
+
+
+class ReadsLocals(BaseCallback):
+    """Keeps what SB3's collect_rollouts shows a callback at every step, and the returns it
+    adds up from the rewards and dones."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.total_timesteps = None
+        self.shapes: list[tuple[Any, ...]] = []
+        self.n_steps: list[int] = []
+        self.returns: list[float] = []
+        self.rollout_ends: list[Any] = []
+
+    def _on_training_start(self) -> None:
+        self.total_timesteps = self.locals["total_timesteps"]
+        self.running = np.zeros(self.training_env.num_envs)
+
+    def _on_step(self) -> bool:
+        loc = self.locals
+        infos, dones, rewards = loc["infos"], loc["dones"], loc["rewards"]
+        new_obs, actions = loc["new_obs"], loc["actions"]
+        self.shapes.append((len(infos), dones.shape, rewards.shape, new_obs.shape, actions.shape))
+        self.n_steps.append(loc["n_steps"])
+        assert loc["env"] is self.training_env and loc["n_rollout_steps"] == SMALL["n_steps"]
+        self.running += rewards
+        for i in np.flatnonzero(dones):
+            self.returns.append(float(self.running[i]))
+            self.running[i] = 0.0
+        return True
+
+    def _on_rollout_end(self) -> None:
+        self.rollout_ends.append(self.locals["rollout_buffer"])
+
+
+def test_stop_training_on_max_episodes_stops_after_them() -> None:
+    m = model(n_envs=1)
+    m.learn(5000, callback=StopTrainingOnMaxEpisodes(max_episodes=3))
+    assert len(m.ep_info_buffer) == 3  # stopped at the step that ended the third episode
+    assert m.num_timesteps == sum(ep["l"] for ep in m.ep_info_buffer)
+
+
+@RICH_IS_EXPERIMENTAL
+def test_sb3_progress_bar_callback_runs() -> None:
+    m = model()
+    bar = ProgressBarCallback()
+    m.learn(256, callback=bar)
+    assert bar.pbar.total == 256 and bar.pbar.n == m.num_timesteps == 256
+
+
+def test_a_callback_reads_sb3s_locals_at_every_step() -> None:
+    m = model()
+    seen = ReadsLocals()
+    m.learn(256, callback=seen)
+    assert seen.total_timesteps == 256
+    assert seen.shapes == [(2, (2,), (2,), (2, 4), (2,))] * 128
+    assert seen.n_steps == list(range(32)) * 4
+    assert len(seen.rollout_ends) == 4 and seen.rollout_ends[-1].returns.shape == (32, 2)
+    # the finished episodes' returns, as SB3 keeps them from the Monitor-style infos
+    assert seen.returns and [ep["r"] for ep in m.ep_info_buffer] == seen.returns[-100:]
+    assert [ep["l"] for ep in m.ep_info_buffer] == [int(r) for r in seen.returns[-100:]]
+    assert list(m.ep_success_buffer) == [r >= 20 for r in seen.returns[-100:]]
+
+
+@RICH_IS_EXPERIMENTAL
+def test_callbacks_change_nothing_in_training() -> None:
+    alone, watched = model(), model()
+    alone.learn(256)
+    watched.learn(256, callback=[ReadsLocals(), ProgressBarCallback()])
+    weights = watched.net.state_dict()
+    assert all(torch.equal(w, weights[k]) for k, w in alone.net.state_dict().items())
+
+
+def test_ep_info_buffer_starts_anew_as_sb3s() -> None:
+    m = model()
+    m.learn(128)
+    kept = len(m.ep_info_buffer)
+    m.learn(64, reset_num_timesteps=False)
+    assert len(m.ep_info_buffer) > kept
+    m.learn(64)  # reset_num_timesteps=True: a new count, new episodes, new buffers
+    assert 0 < sum(ep["l"] for ep in m.ep_info_buffer) <= 64
