@@ -53,6 +53,11 @@ def model(n_envs: int = 2, **settings: Any) -> TLAC:
     return TLAC(cartpole(n_envs), teachers=[left], seed=0, **{**SMALL, **settings})
 
 
+def same_weights(a: TLAC, b: TLAC) -> bool:
+    weights = b.net.state_dict()
+    return all(torch.equal(w, weights[k]) for k, w in a.net.state_dict().items())
+
+
 class ReadsLocals(BaseCallback):
     """Keeps what SB3's collect_rollouts shows a callback at every step, and the returns it
     adds up from the rewards and dones."""
@@ -120,8 +125,7 @@ def test_callbacks_change_nothing_in_training() -> None:
     alone, watched = model(), model()
     alone.learn(256)
     watched.learn(256, callback=[ReadsLocals(), ProgressBarCallback()])
-    weights = watched.net.state_dict()
-    assert all(torch.equal(w, weights[k]) for k, w in alone.net.state_dict().items())
+    assert same_weights(alone, watched)
 
 
 def test_ep_info_buffer_starts_anew_as_sb3s() -> None:
@@ -132,3 +136,13 @@ def test_ep_info_buffer_starts_anew_as_sb3s() -> None:
     assert len(m.ep_info_buffer) > kept
     m.learn(64)  # reset_num_timesteps=True: a new count, new episodes, new buffers
     assert 0 < sum(ep["l"] for ep in m.ep_info_buffer) <= 64
+
+
+def test_no_seed_draws_one_as_sb3_and_records_it() -> None:
+    torch.set_num_threads(1)
+    a, b = (TLAC(cartpole(), teachers=[left], **SMALL) for _ in range(2))
+    assert a.seed != b.seed and not same_weights(a, b)
+    again = TLAC(cartpole(), teachers=[left], seed=a.seed, **SMALL)  # the recorded seed repeats
+    assert same_weights(again, a)
+    c, d = (TLAC(cartpole(), teachers=[left], seed=7, **SMALL) for _ in range(2))
+    assert c.seed == d.seed == 7 and same_weights(c, d)

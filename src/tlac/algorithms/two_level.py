@@ -97,6 +97,8 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
     ``teachers``: objects with a batched ``predict``, SB3 models, plain functions of one
     observation, or -- when ``env`` is a domain name -- that domain's teacher names.
     ``predict`` uses the low-level policy ALONE: the student a user deploys.
+    ``seed``: as SB3's, None (the default) draws one at random, recorded in ``model.seed``
+    (``TLAC(..., seed=model.seed)`` repeats the run); ``tlac train`` and experiments pass theirs.
     ``preset``: the settings that ``settings`` override. ``"auto"``: a domain name's own preset
     (as ``tlac train`` uses it), else ``presets/default.yaml`` (measured on users'
     environments, docs/graduation.md; the graduate variant's: ``variant="paper"`` takes
@@ -127,7 +129,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self,
         env: Any,
         teachers: Sequence[Any] = (),
-        seed: int | None = 0,
+        seed: int | None = None,
         recorder: Recorder | None = None,
         preset: str | None = "auto",
         verbose: int = 0,
