@@ -1,5 +1,7 @@
 """What stable-baselines3 users do out of habit works on TL-AC (issue 65): SB3's own callbacks
-and callbacks reading ``self.locals`` at every step, ``model.ep_info_buffer``."""
+and callbacks reading ``self.locals`` at every step, ``model.ep_info_buffer``, ``seed=None``,
+one teacher without a list, an SB3 policy as a teacher, and SB3's argument order refused in
+one line."""
 
 from __future__ import annotations
 
@@ -17,6 +19,7 @@ from stable_baselines3.common.callbacks import (
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from tlac import TLAC
+from tlac.errors import ConfigError
 
 SMALL = dict(n_steps=32, batch_size=32)
 RICH_IS_EXPERIMENTAL = pytest.mark.filterwarnings("ignore:rich is experimental")
@@ -146,3 +149,46 @@ def test_no_seed_draws_one_as_sb3_and_records_it() -> None:
     assert same_weights(again, a)
     c, d = (TLAC(cartpole(), teachers=[left], seed=7, **SMALL) for _ in range(2))
     assert c.seed == d.seed == 7 and same_weights(c, d)
+
+
+class Pushes:
+    """A batched teacher object: push towards where the pole leans."""
+
+    def predict(self, obs: np.ndarray) -> np.ndarray:
+        return (obs[:, 2] + 0.5 * obs[:, 3] > 0).astype(np.int64)
+
+
+def test_one_teacher_needs_no_list() -> None:
+    for one, name in [(left, "left"), (Pushes(), "pushes")]:
+        m = TLAC(cartpole(), teachers=one, seed=0, **SMALL)
+        assert m.teacher_names == [name] and m.n_choices == 2
+        m.learn(64)
+        assert m.num_timesteps == 64
+
+
+def test_an_sb3_policy_is_a_teacher() -> None:
+    from stable_baselines3 import PPO
+
+    torch.set_num_threads(1)
+    policy = PPO("MlpPolicy", "CartPole-v1", seed=0, device="cpu").policy  # as BC gives one
+    obs = np.random.default_rng(0).normal(size=(5, 4)).astype(np.float32)
+    for teachers in (policy, [policy, left]):
+        m = TLAC(cartpole(), teachers=teachers, seed=0, **SMALL)
+        assert m.teacher_names[0] == "actorcriticpolicy"
+        advice = m.teachers[0].predict(obs)
+        assert np.array_equal(advice, policy.predict(obs, deterministic=True)[0])
+        m.learn(64)
+
+
+def test_sb3s_argument_order_is_one_clear_error() -> None:
+    for call in (
+        lambda: TLAC("MlpPolicy", env=cartpole()),
+        lambda: TLAC("MlpPolicy", cartpole()),
+    ):
+        with pytest.raises(
+            ConfigError, match=r"environment first .*TLAC\(env, teachers=\["
+        ) as info:
+            call()
+        assert "policy='MlpPolicy'" in str(info.value) and "\n" not in str(info.value)
+    with pytest.raises(ConfigError, match="TLAC got env twice"):
+        TLAC(cartpole(), env=cartpole())

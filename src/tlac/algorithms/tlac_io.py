@@ -110,11 +110,14 @@ def as_teachers(
     teachers: Sequence[Any], domain: Any, seed: int, action_space: gym.Space
 ) -> list[Teacher]:
     """What a user passes as ``teachers``: a domain's teacher names (``env`` a domain name), or
-    objects / SB3 models / plain functions, named for the logs (unique names)."""
+    objects / SB3 models or policies / plain functions, named for the logs (unique names); one
+    teacher alone (not in a list) is a list of one."""
     if isinstance(teachers, str):
         raise ConfigError(
             f"teachers must be a list, got the string {teachers!r}; did you mean [{teachers!r}]?"
         )
+    if callable(teachers) or hasattr(teachers, "predict"):  # one function, object or model
+        teachers = [teachers]
     if teachers and all(isinstance(t, str) for t in teachers):
         if domain is None:
             raise ConfigError(
@@ -215,7 +218,9 @@ class TLACPersistence:
             action_space = space_from_data(saved["action_space"])
             if self.env is not None:
                 check_env_spaces(self.env, obs_space, action_space)
-        self.teachers = as_teachers(teachers or [], domain, seed, action_space)
+        self.teachers = as_teachers(
+            [] if teachers is None else teachers, domain, seed, action_space
+        )
         names = [t.name for t in self.teachers] if saved is None else saved["teacher_names"]
         if saved is not None and teachers is not None and len(self.teachers) != len(names):
             raise ConfigError(

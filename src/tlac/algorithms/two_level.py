@@ -90,12 +90,25 @@ they have at most this many values (32 MB of float32; DoorKey's preset: 320 x 10
 first layer is not narrowed (TLAC._narrowed_columns)."""
 
 
+def policy_first_error(first: Any) -> str:
+    """The error for SB3's argument order, ``TLAC(policy, env)``: ``first`` came before env
+    (given by name, or as the teachers)."""
+    if not isinstance(first, str):
+        return "TLAC got env twice: as its first argument and as env=; pass it once"
+    return (
+        "TLAC takes the environment first and builds its own networks: TLAC(env, "
+        f"teachers=[...]), not SB3's TLAC(policy, env); got {first!r:.60} before env (to "
+        "choose the networks' kind, pass policy='MlpPolicy' or 'CnnPolicy' by name)"
+    )
+
+
 class TLAC(TLACHeads, SB3Compat, TLACPersistence):
     """Two-Level Actor-Critic. ``TLAC(env, teachers, **settings).learn(steps)``.
 
     ``env``: a domain name (``"doorkey"``), a Gymnasium env or an SB3 ``VecEnv``.
-    ``teachers``: objects with a batched ``predict``, SB3 models, plain functions of one
-    observation, or -- when ``env`` is a domain name -- that domain's teacher names.
+    ``teachers``: objects with a batched ``predict``, SB3 models or policies (``model.policy``),
+    plain functions of one observation, or -- when ``env`` is a domain name -- that domain's
+    teacher names; one teacher may come alone, without a list.
     ``predict`` uses the low-level policy ALONE: the student a user deploys.
     ``seed``: as SB3's, None (the default) draws one at random, recorded in ``model.seed``
     (``TLAC(..., seed=model.seed)`` repeats the run); ``tlac train`` and experiments pass theirs.
@@ -125,6 +138,13 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
     torch_threads: int | None = 1
     log_interval = 2000
 
+    def __new__(cls, *args: Any, **kwargs: Any) -> TLAC:
+        """SB3's order, ``TLAC("MlpPolicy", env=...)``, is one clear error (not Python's
+        TypeError about ``env`` given twice)."""
+        if args and "env" in kwargs:
+            raise ConfigError(policy_first_error(args[0]))
+        return super().__new__(cls)
+
     def __init__(
         self,
         env: Any,
@@ -141,10 +161,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
     ):
         check_sb3_arguments(verbose, tensorboard_log, device, torch_threads)
         if isinstance(env, str) and env in POLICIES:
-            raise ConfigError(
-                f"TLAC takes the environment first, TLAC(env, teachers, ...); pass the policy "
-                f"by name: TLAC(env, policy={env!r})"
-            )
+            raise ConfigError(policy_first_error(env))
         self.obs_policy, settings = ObsPolicy.from_arguments(policy, settings)
         self.verbose, self.tensorboard_log, self.torch_threads = (
             int(verbose),
