@@ -192,3 +192,43 @@ def test_sb3s_argument_order_is_one_clear_error() -> None:
         assert "policy='MlpPolicy'" in str(info.value) and "\n" not in str(info.value)
     with pytest.raises(ConfigError, match="TLAC got env twice"):
         TLAC(cartpole(), env=cartpole())
+
+
+def greedy(m: TLAC, obs: np.ndarray) -> np.ndarray:
+    return m.predict(obs, deterministic=True)[0]
+
+
+@pytest.mark.parametrize("env_id", ["CartPole-v1", "Pendulum-v1"])
+def test_get_and_set_parameters_round_trip(tmp_path, env_id: str) -> None:
+    torch.set_num_threads(1)
+    make = lambda seed: TLAC(gym.make(env_id), seed=seed, **SMALL)  # noqa: E731
+    obs = np.stack([gym.make(env_id).observation_space.sample() for _ in range(32)])
+    trained = make(0).learn(64)
+    trained.deployed = trained._snapshot_student()  # what predict deploys comes along too
+    params = trained.get_parameters()
+    assert params["deployed"] is not None and params["normalizer"] is not None
+    other = make(1)
+    assert not np.array_equal(greedy(other, obs), greedy(trained, obs))
+    other.set_parameters(params)
+    assert np.array_equal(greedy(other, obs), greedy(trained, obs))
+    before = greedy(trained, obs)
+    trained.deployed = None
+    trained.learn(64)
+    trained.set_parameters(params)  # a copy: the training since changed nothing in it
+    assert np.array_equal(greedy(trained, obs), before)
+    fresh = make(2)
+    fresh.set_parameters(trained.save(tmp_path / "model"))  # or a model file
+    assert np.array_equal(greedy(fresh, obs), before)
+
+
+def test_set_parameters_names_what_does_not_fit() -> None:
+    m = model()
+    params = m.get_parameters()
+    with pytest.raises(ConfigError, match=r"missing \['optimizer'\]"):
+        m.set_parameters({k: v for k, v in params.items() if k != "optimizer"})
+    m.set_parameters({"net": params["net"]}, exact_match=False)
+    with pytest.raises(ConfigError, match=r"unknown \['policy'\]"):
+        m.set_parameters({**params, "policy": {}})
+    wider = TLAC(cartpole(), teachers=[left], seed=0, net_arch_low=[8, 8], **SMALL)
+    with pytest.raises(ConfigError, match="does not fit this model"):
+        wider.set_parameters(params)
