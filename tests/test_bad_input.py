@@ -385,7 +385,7 @@ def _api_cases() -> list[tuple[str, object, str]]:
 
     def learn(teacher, steps=64):
         def go():
-            TLAC(_pendulum(), teachers=[teacher], n_steps=16, batch_size=16).learn(
+            TLAC(_pendulum(), teachers=[teacher], seed=0, n_steps=16, batch_size=16).learn(
                 steps, progress_bar=False
             )
 

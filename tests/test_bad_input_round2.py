@@ -361,7 +361,7 @@ class _WrongShape(_OldStepApi):
 def test_an_environment_off_gymnasiums_api_is_one_error(env_cls, fragment):
     from tlac import TLAC
 
-    model = TLAC(env_cls(), n_steps=16, batch_size=16)
+    model = TLAC(env_cls(), seed=0, n_steps=16, batch_size=16)
     with pytest.raises(ConfigError) as info:
         model.learn(16, progress_bar=False)
     assert fragment in str(info.value)
@@ -379,7 +379,9 @@ def test_an_environment_off_gymnasiums_api_is_one_error(env_cls, fragment):
 def test_a_teacher_returning_garbage_is_one_error(action, fragment):
     from tlac import TLAC
 
-    model = TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: action], n_steps=16, batch_size=16)
+    model = TLAC(
+        gym.make("CartPole-v1"), teachers=[lambda obs: action], seed=0, n_steps=16, batch_size=16
+    )
     with pytest.raises(TeacherError) as info:
         model.learn(16, progress_bar=False)
     assert fragment in str(info.value)

@@ -300,11 +300,12 @@ class EpisodeRecorder(VecEnvWrapper):
             self.episode_lengths.append(length)
             self.episodes_done += 1
             infos[i] = dict(infos[i])
-            infos[i]["episode"] = {"r": ret, "l": length, "t": time.time()}
+            elapsed = round(time.time() - self._t_start, 6)  # as SB3's Monitor
+            infos[i]["episode"] = {"r": ret, "l": length, "t": elapsed}
             if self._writer is not None:
                 # the step at which this episode ended, counted over all environments
                 self._writer.writerow([self.num_timesteps - self.num_envs + i + 1, ret, length])
-                self._monitor.writerow([ret, length, round(time.time() - self._t_start, 6)])
+                self._monitor.writerow([ret, length, elapsed])
             self._returns[i] = 0.0
             self._lengths[i] = 0
         if dones.any():

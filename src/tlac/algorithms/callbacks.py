@@ -5,21 +5,31 @@ pass them: a plain function, an SB3 ``BaseCallback`` (``EvalCallback``, ``Checkp
 * A plain function ``f(model) -> bool | None`` runs once after every update (a TL-AC rollout
   and its epochs, a DQN-TLQL training step, an AC-Teach cycle); ``False`` stops training.
 * An SB3 callback gets SB3's protocol: ``init_callback(model)`` and ``on_training_start`` when
-  ``learn`` starts; after each update ``on_rollout_start``, ``on_step`` once per vectorised
-  environment step of that update, ``on_rollout_end``; ``on_training_end`` at the end. tlac steps the
-  environments inside its own loop, so the ``on_step`` calls of one update come together after
-  it (``model.num_timesteps`` is then the step count after the update): an ``EvalCallback``
-  with ``eval_freq=1000`` evaluates after the update in which the 1000th step fell.
-  ``self.locals`` holds only ``{"self": model}``: callbacks that read the rollout's ``dones`` or
-  ``infos`` from it (``StopTrainingOnMaxEpisodes``) are not supported.
+  ``learn`` starts, with ``self.locals`` holding SB3's names of ``learn`` (``total_timesteps``
+  is the step count at which this call ends, as SB3's ``ProgressBarCallback`` reads it), and
+  ``on_training_end`` at the end. TL-AC calls the rest as SB3's ``collect_rollouts`` does:
+  ``on_rollout_start``; ``on_step`` after every vectorised environment step, with that step's
+  ``self.locals`` (``new_obs``, ``rewards``, ``dones``, ``infos``, ``actions``, ``env``,
+  ``n_steps``, ``rollout_buffer``...), so that ``StopTrainingOnMaxEpisodes`` counts episodes and
+  a callback returning ``False`` stops training at that step, without an update on the rollout
+  it cut short; ``on_rollout_end`` before the update. DQN-TLQL and AC-Teach step the
+  environments inside their own loop: the ``on_step`` calls of one of their updates come
+  together after it (``model.num_timesteps`` is then the step count after the update), and
+  ``self.locals`` holds only ``learn``'s names.
+* Calling them changes nothing in training: no random draw, no computation of the training's
+  own (a callback that itself calls ``predict(deterministic=False)`` draws from the model's
+  acting generator, as it does in SB3).
 
 For these, the algorithms offer what SB3 callbacks use of a model (:class:`SB3Compat`):
-``get_env()``, ``get_vec_normalize_env()``, ``logger`` (an SB3 ``Logger``), ``num_timesteps``, ``predict(observation,
-state, episode_start, deterministic)`` and ``save(path)``.
+``get_env()``, ``get_vec_normalize_env()``, ``logger`` (an SB3 ``Logger``), ``num_timesteps``,
+``predict(observation, state, episode_start, deterministic)``, ``save(path)`` and (TL-AC)
+``ep_info_buffer`` / ``ep_success_buffer``: the last 100 finished training episodes'
+``{"r", "l", "t"}`` and ``is_success``, as SB3 keeps them.
 """
 
 from __future__ import annotations
 
+from collections import deque
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +39,9 @@ from stable_baselines3.common.vec_env import VecNormalize, unwrap_vec_normalize
 
 from tlac.errors import ConfigError, require_extra
 from tlac.recording import EpisodeRecorder
+
+EPISODE_WINDOW = 100
+"""The finished episodes that ``ep_info_buffer`` keeps (SB3's ``stats_window_size``)."""
 
 
 class SB3Compat:
@@ -40,6 +53,8 @@ class SB3Compat:
     tensorboard_log: str | None = None
     _tb_configured: bool = False
     tb_log_name: str = "TLAC"
+    ep_info_buffer: deque[dict[str, Any]] | None = None
+    ep_success_buffer: deque[Any] | None = None
 
     def get_env(self) -> Any:
         """The training environments (SB3's name): the VecEnv the user gave (or tlac made),
@@ -48,6 +63,26 @@ class SB3Compat:
         and syncs a ``VecNormalize`` layer by layer)."""
         env = self.env
         return env.venv if isinstance(env, EpisodeRecorder) else env
+
+    def _new_info_buffers(self, reset: bool = True) -> None:
+        """SB3's ``ep_info_buffer`` and ``ep_success_buffer`` (the last 100 episodes), new at a
+        ``learn`` call that resets the step count, or when there are none yet."""
+        if reset or self.ep_info_buffer is None:
+            self.ep_info_buffer = deque(maxlen=EPISODE_WINDOW)
+            self.ep_success_buffer = deque(maxlen=EPISODE_WINDOW)
+
+    def _record_episode_info(self, info: dict[str, Any]) -> None:
+        """A finished episode's ``info``, kept as SB3's ``_update_info_buffer`` keeps it: its
+        ``"episode"`` record (``{"r", "l", "t"}``: tlac's episode recorder, or a ``Monitor``, puts
+        it there) and its ``"is_success"``."""
+        if self.ep_info_buffer is None or self.ep_success_buffer is None:
+            self._new_info_buffers()
+            assert self.ep_info_buffer is not None and self.ep_success_buffer is not None
+        episode, success = info.get("episode"), info.get("is_success")
+        if episode is not None:
+            self.ep_info_buffer.append(episode)
+        if success is not None:
+            self.ep_success_buffer.append(success)
 
     def get_vec_normalize_env(self) -> VecNormalize | None:
         """The ``VecNormalize`` in the training environments' wrappers, if the user gave one
@@ -148,7 +183,10 @@ def split_callbacks(callback: Any) -> tuple[list[Any], list[BaseCallback]]:
 
 
 class LearnCallbacks:
-    """The callbacks of one ``learn`` call (see the module docstring).
+    """The callbacks of one ``learn`` call (see the module docstring). ``learn_locals``: what
+    ``on_training_start`` shows of ``learn`` under SB3's names; ``per_step``: the learn loop
+    calls :meth:`rollout_start`, :meth:`step` and :meth:`rollout_end` while it collects (TL-AC),
+    else :meth:`after_update` makes the SB3 callbacks' calls of the update's steps.
 
     >>> class Model(SB3Compat):
     ...     env = type("Env", (), {"num_envs": 2})()
@@ -160,21 +198,51 @@ class LearnCallbacks:
     (True, [16])
     """
 
-    def __init__(self, callback: Any, model: Any):
+    def __init__(
+        self,
+        callback: Any,
+        model: Any,
+        learn_locals: dict[str, Any] | None = None,
+        per_step: bool = False,
+    ):
         self.model = model
         self.functions, self.sb3 = split_callbacks(callback)
+        self.per_step = per_step
         self._steps_seen = model.num_timesteps
         for c in self.sb3:
             c.init_callback(model)
-            c.on_training_start({"self": model}, {})
+            c.on_training_start({"self": model, **(learn_locals or {})}, {})
+
+    def rollout_start(self) -> None:
+        """``on_rollout_start`` for the SB3 callbacks (per-step loops)."""
+        for c in self.sb3:
+            c.on_rollout_start()
+
+    def step(self, step_locals: dict[str, Any]) -> bool:
+        """``on_step`` for the SB3 callbacks after one vectorised environment step, which they
+        read in ``self.locals`` (per-step loops); False when one of them asks to stop."""
+        go_on = True
+        for c in self.sb3:
+            c.update_locals(step_locals)
+            if c.on_step() is False:
+                go_on = False
+        return go_on
+
+    def rollout_end(self, rollout_locals: dict[str, Any]) -> None:
+        """``on_rollout_end`` for the SB3 callbacks, the rollout's end in ``self.locals``
+        (per-step loops)."""
+        for c in self.sb3:
+            c.update_locals(rollout_locals)
+            c.on_rollout_end()
 
     def after_update(self) -> bool:
-        """Run every callback after an update; False when one of them asks to stop."""
+        """Run every callback after an update (the SB3 ones' rollout and steps, unless the loop
+        made them as it collected); False when one of them asks to stop."""
         model = self.model
         vec_steps = max(1, (model.num_timesteps - self._steps_seen) // model.env.num_envs)
         self._steps_seen = model.num_timesteps
         go_on = True
-        for c in self.sb3:
+        for c in [] if self.per_step else self.sb3:
             c.on_rollout_start()
             for _ in range(vec_steps):
                 if c.on_step() is False:

@@ -194,7 +194,8 @@ def learn_loop(
         model._next_log = next_log_step(start, recorder.log_interval)
     t0 = time.time()
     bar = make_progress_bar(total_timesteps, desc, progress_bar)
-    callbacks = LearnCallbacks(callback, model)
+    learn_locals = {"total_timesteps": end, "callback": callback, "progress_bar": progress_bar}
+    callbacks = LearnCallbacks(callback, model, learn_locals)  # (SB3's names of learn)
     while model.num_timesteps < end:
         eps = exploration_rate(model)
         model.collect(eps)

@@ -45,6 +45,9 @@ from tlac.errors import ConfigError, TlacError
 from tlac.recording import EpisodeRecorder, MetricWindow, find_episode_recorder
 from tlac.teachers.base import Teacher, as_teacher, teacher_label, unique_names
 
+PARAMETERS = ("net", "extractor", "log_std", "optimizer", "normalizer", "deployed")
+"""What :meth:`TLACPersistence.get_parameters` gives, in a model file's order."""
+
 FORMAT = "tlac.TLAC/2"
 """Checkpoint format: plain data and tensors only (loads with weights_only=True). Format 1
 pickled the Gymnasium spaces and needed an unsafe load."""
@@ -110,11 +113,14 @@ def as_teachers(
     teachers: Sequence[Any], domain: Any, seed: int, action_space: gym.Space
 ) -> list[Teacher]:
     """What a user passes as ``teachers``: a domain's teacher names (``env`` a domain name), or
-    objects / SB3 models / plain functions, named for the logs (unique names)."""
+    objects / SB3 models or policies / plain functions, named for the logs (unique names); one
+    teacher alone (not in a list) is a list of one."""
     if isinstance(teachers, str):
         raise ConfigError(
             f"teachers must be a list, got the string {teachers!r}; did you mean [{teachers!r}]?"
         )
+    if callable(teachers) or hasattr(teachers, "predict"):  # one function, object or model
+        teachers = [teachers]
     if teachers and all(isinstance(t, str) for t in teachers):
         if domain is None:
             raise ConfigError(
@@ -123,6 +129,26 @@ def as_teachers(
         return make_teachers(domain, list(teachers), domain.make_env(), seed)
     names = unique_names([teacher_label(t, i) for i, t in enumerate(teachers)])
     return [as_teacher(t, action_space, n) for t, n in zip(teachers, names, strict=True)]
+
+
+def read_model_file(path: Path) -> dict[str, Any]:
+    """The contents of the TL-AC model file ``path`` (read without running code from it); a
+    missing file or another format is a ConfigError naming it."""
+    if not path.exists():
+        raise ConfigError(f"no TL-AC model at {str(path)!r}")
+    state = safe_torch_load(path, "TL-AC model")
+    if not isinstance(state, dict) or state.get("format") != FORMAT:
+        found = state.get("format") if isinstance(state, dict) else None
+        hint = f" (it is {found}, from an older tlac: retrain it)" if found else ""
+        raise ConfigError(f"{str(path)!r} is not a {FORMAT} model file{hint}")
+    return state
+
+
+def file_parameters(state: dict[str, Any]) -> dict[str, Any]:
+    """A model file's :data:`PARAMETERS`: ``net``, ``log_std`` and ``optimizer`` it must hold
+    (KeyError), the others are None where an older file lacks them."""
+    required = ("net", "log_std", "optimizer")
+    return {k: state[k] if k in required else state.get(k) for k in PARAMETERS}
 
 
 def log_metrics(
@@ -215,7 +241,9 @@ class TLACPersistence:
             action_space = space_from_data(saved["action_space"])
             if self.env is not None:
                 check_env_spaces(self.env, obs_space, action_space)
-        self.teachers = as_teachers(teachers or [], domain, seed, action_space)
+        self.teachers = as_teachers(
+            [] if teachers is None else teachers, domain, seed, action_space
+        )
         names = [t.name for t in self.teachers] if saved is None else saved["teacher_names"]
         if saved is not None and teachers is not None and len(self.teachers) != len(names):
             raise ConfigError(
@@ -265,12 +293,7 @@ class TLACPersistence:
             "teacher_names": self.teacher_names,
             "env_name": self.env_name,
             "policy": self.obs_policy.to_data(),
-            "net": self.net.state_dict(),
-            "extractor": self.encoder.module.state_dict() if self._extractor_params else None,
-            "log_std": None if self.log_std is None else self.log_std.detach().clone(),
-            "optimizer": self.optimizer.state_dict(),
-            "normalizer": None if self.normalizer is None else self.normalizer.state(),
-            "deployed": None if self.deployed is None else self.deployed.state(),
+            **self._parameters(),
         }
         vec_normalize = self.get_vec_normalize_env()
         if vec_normalize is not None:  # the user's VecNormalize: its statistics, as tensors
@@ -280,6 +303,101 @@ class TLACPersistence:
         if run_state is not None:
             state["run"] = run_state
         return atomic_torch_save(state, path)
+
+    def _parameters(self) -> dict[str, Any]:
+        """The :data:`PARAMETERS` of a model file (live state dicts, not copies)."""
+        return {
+            "net": self.net.state_dict(),
+            "extractor": self.encoder.module.state_dict() if self._extractor_params else None,
+            "log_std": None if self.log_std is None else self.log_std.detach().clone(),
+            "optimizer": self.optimizer.state_dict(),
+            "normalizer": None if self.normalizer is None else self.normalizer.state(),
+            "deployed": None if self.deployed is None else self.deployed.state(),
+        }
+
+    def _load_parameters(self, params: dict[str, Any], where: str) -> None:
+        """Load the :data:`PARAMETERS` that ``params`` holds (a model file's, or
+        :meth:`get_parameters`'); ``where``: what errors name (a file, or the call)."""
+        if "net" in params:  # checkpoints before the per-layer masks stored all-ones masks
+            known = self.net.state_dict()
+            self.net.load_state_dict({k: v for k, v in params["net"].items() if k in known})
+        if params.get("extractor") is not None:  # the shared CNN
+            self.encoder.module.load_state_dict(params["extractor"])
+        if params.get("log_std") is not None:
+            if self.log_std is None:
+                raise ConfigError(f"{where}: a Gaussian's log_std for a model of discrete actions")
+            with torch.no_grad():
+                self.log_std.copy_(params["log_std"])
+        if "optimizer" in params:
+            self.optimizer.load_state_dict(params["optimizer"])
+        if self.normalizer is not None and "normalizer" in params:
+            if params["normalizer"] is None:
+                raise ConfigError(
+                    f"{where}: no normalisation statistics, which this model's settings need "
+                    "(normalize_obs / normalize_reward)"
+                )
+            self.normalizer.set_state(params["normalizer"])
+        if "deployed" in params:  # the kept student (solo episodes); None: the live weights
+            saved = params["deployed"]
+            self.deployed = (
+                None
+                if saved is None
+                else StudentSnapshot.from_state(
+                    saved,
+                    copy.deepcopy(self.normalizer),
+                    self.encoder.frozen_copy() if self._extractor_params else None,
+                )
+            )
+
+    def get_parameters(self) -> dict[str, Any]:
+        """SB3's ``get_parameters``: a copy of the model's parameters by name, each a state dict
+        (plain data and tensors, as a model file holds them): ``"net"`` (the three networks,
+        stacked), ``"optimizer"``, and, None where the model has none, ``"extractor"`` (the
+        shared CNN), ``"log_std"`` (the Gaussian's, a tensor), ``"normalizer"`` (tlac's
+        observation and reward statistics) and ``"deployed"`` (the kept student that
+        ``predict`` deploys). :meth:`set_parameters` loads them back."""
+        return copy.deepcopy(self._parameters())
+
+    def set_parameters(
+        self,
+        load_path_or_dict: str | Path | dict[str, Any],
+        exact_match: bool = True,
+        device: str = "auto",
+    ) -> None:
+        """SB3's ``set_parameters``: load parameters from :meth:`get_parameters`' dict or from
+        a TL-AC model file, into a model of the same spaces and networks. ``exact_match``:
+        every name of :meth:`get_parameters` must be given (False: those given only).
+        ``device``: ``"auto"`` or ``"cpu"``, where tlac runs."""
+        if device not in ("auto", "cpu"):
+            raise ConfigError(f"device {device!r}: tlac runs on the CPU ('auto' or 'cpu')")
+        where, params = "the dict given", load_path_or_dict
+        if isinstance(params, str | Path):
+            where = repr(str(params))
+            try:
+                params = file_parameters(read_model_file(Path(params)))
+            except KeyError as exc:
+                raise ConfigError(f"{where} is not a loadable TL-AC model file: no {exc}") from None
+        if not isinstance(params, dict):
+            raise ConfigError(
+                f"set_parameters: expected get_parameters()' dict or a model file path, got "
+                f"{type(params).__name__}"
+            )
+        unknown = sorted(set(params) - set(PARAMETERS))
+        missing = [k for k in PARAMETERS if k not in params]
+        if unknown or (exact_match and missing):
+            culprit = f"unknown {unknown}" if unknown else f"missing {missing}"
+            raise ConfigError(
+                f"set_parameters: {culprit}; expected the names {list(PARAMETERS)} "
+                "(exact_match=False loads those given)"
+            )
+        try:
+            self._load_parameters(params, where)
+        except (KeyError, TypeError, ValueError, RuntimeError, IndexError, AttributeError) as exc:
+            problem = " ".join(str(exc).split())
+            raise ConfigError(
+                f"set_parameters: {where} does not fit this model ({type(exc).__name__} "
+                f"{problem[:200]}): the parameters of a model with other spaces or networks?"
+            ) from None
 
     def _training_state(self) -> dict[str, Any]:
         """What :meth:`save` writes with ``training_state=True`` (plain data and tensors)."""
@@ -390,13 +508,7 @@ class TLACPersistence:
         path = Path(path)
         if not path.exists() and path.with_name(path.name + ".pt").exists():
             path = path.with_name(path.name + ".pt")
-        if not path.exists():
-            raise ConfigError(f"no TL-AC model at {str(path)!r}")
-        state = safe_torch_load(path, "TL-AC model")
-        if not isinstance(state, dict) or state.get("format") != FORMAT:
-            found = state.get("format") if isinstance(state, dict) else None
-            hint = f" (it is {found}, from an older tlac: retrain it)" if found else ""
-            raise ConfigError(f"{str(path)!r} is not a {FORMAT} model file{hint}")
+        state = read_model_file(path)
         try:
             model = cls._from_state(state, path, env, teachers, resume)
         except TlacError:
@@ -423,29 +535,10 @@ class TLACPersistence:
         model = cls.__new__(cls)
         model.obs_policy = ObsPolicy.from_data(state.get("policy"))
         model._setup(TLACConfig(**state["config"]), state["seed"], env, teachers, None, state)
-        # checkpoints before the per-layer masks stored an all-ones mask for every layer
-        known = model.net.state_dict()
-        model.net.load_state_dict({k: v for k, v in state["net"].items() if k in known})
-        if state.get("extractor") is not None:  # the shared CNN
-            model.encoder.module.load_state_dict(state["extractor"])
-        if state["log_std"] is not None:
-            assert model.log_std is not None
-            with torch.no_grad():
-                model.log_std.copy_(state["log_std"])
-        model.optimizer.load_state_dict(state["optimizer"])
-        if model.normalizer is not None:
-            if state.get("normalizer") is None:
-                raise ConfigError(f"{path} was saved without its normalisation statistics")
-            model.normalizer.set_state(state["normalizer"])
+        model._load_parameters(file_parameters(state), str(path))
         vec_normalize = model.get_vec_normalize_env()
         if vec_normalize is not None and state.get("vec_normalize") is not None:
             set_vec_normalize_state(vec_normalize, state["vec_normalize"])  # as at save time
-        if state.get("deployed") is not None:  # the kept student (solo episodes)
-            model.deployed = StudentSnapshot.from_state(
-                state["deployed"],
-                copy.deepcopy(model.normalizer),
-                model.encoder.frozen_copy() if model._extractor_params else None,
-            )
         if resume:
             if "training" not in state:
                 raise ConfigError(

@@ -90,13 +90,28 @@ they have at most this many values (32 MB of float32; DoorKey's preset: 320 x 10
 first layer is not narrowed (TLAC._narrowed_columns)."""
 
 
+def policy_first_error(first: Any) -> str:
+    """The error for SB3's argument order, ``TLAC(policy, env)``: ``first`` came before env
+    (given by name, or as the teachers)."""
+    if not isinstance(first, str):
+        return "TLAC got env twice: as its first argument and as env=; pass it once"
+    return (
+        "TLAC takes the environment first and builds its own networks: TLAC(env, "
+        f"teachers=[...]), not SB3's TLAC(policy, env); got {first!r:.60} before env (to "
+        "choose the networks' kind, pass policy='MlpPolicy' or 'CnnPolicy' by name)"
+    )
+
+
 class TLAC(TLACHeads, SB3Compat, TLACPersistence):
     """Two-Level Actor-Critic. ``TLAC(env, teachers, **settings).learn(steps)``.
 
     ``env``: a domain name (``"doorkey"``), a Gymnasium env or an SB3 ``VecEnv``.
-    ``teachers``: objects with a batched ``predict``, SB3 models, plain functions of one
-    observation, or -- when ``env`` is a domain name -- that domain's teacher names.
+    ``teachers``: objects with a batched ``predict``, SB3 models or policies (``model.policy``),
+    plain functions of one observation, or -- when ``env`` is a domain name -- that domain's
+    teacher names; one teacher may come alone, without a list.
     ``predict`` uses the low-level policy ALONE: the student a user deploys.
+    ``seed``: as SB3's, None (the default) draws one at random, recorded in ``model.seed``
+    (``TLAC(..., seed=model.seed)`` repeats the run); ``tlac train`` and experiments pass theirs.
     ``preset``: the settings that ``settings`` override. ``"auto"``: a domain name's own preset
     (as ``tlac train`` uses it), else ``presets/default.yaml`` (measured on users'
     environments, docs/graduation.md; the graduate variant's: ``variant="paper"`` takes
@@ -123,11 +138,18 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
     torch_threads: int | None = 1
     log_interval = 2000
 
+    def __new__(cls, *args: Any, **kwargs: Any) -> TLAC:
+        """SB3's order, ``TLAC("MlpPolicy", env=...)``, is one clear error (not Python's
+        TypeError about ``env`` given twice)."""
+        if args and "env" in kwargs:
+            raise ConfigError(policy_first_error(args[0]))
+        return super().__new__(cls)
+
     def __init__(
         self,
         env: Any,
         teachers: Sequence[Any] = (),
-        seed: int | None = 0,
+        seed: int | None = None,
         recorder: Recorder | None = None,
         preset: str | None = "auto",
         verbose: int = 0,
@@ -139,10 +161,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
     ):
         check_sb3_arguments(verbose, tensorboard_log, device, torch_threads)
         if isinstance(env, str) and env in POLICIES:
-            raise ConfigError(
-                f"TLAC takes the environment first, TLAC(env, teachers, ...); pass the policy "
-                f"by name: TLAC(env, policy={env!r})"
-            )
+            raise ConfigError(policy_first_error(env))
         self.obs_policy, settings = ObsPolicy.from_arguments(policy, settings)
         self.verbose, self.tensorboard_log, self.torch_threads = (
             int(verbose),
@@ -227,8 +246,10 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         return TLACConfig.from_settings({k: v for k, v in hyperparameters.items() if k != "preset"})
 
     # ----------------------------------------------------------------- Algorithm 1
-    def collect(self) -> Rollout:
-        """Collect ``n_steps`` transitions per environment (Algorithm 1, lines 11-23)."""
+    def collect(self, callbacks: LearnCallbacks | None = None) -> Rollout | None:
+        """Collect ``n_steps`` transitions per environment (Algorithm 1, lines 11-23).
+        ``callbacks``: ``learn``'s, whose SB3 callbacks see every step as in SB3's
+        ``collect_rollouts``; None is returned when one of them stopped the collection."""
         cfg = self.config
         T, E = cfg.n_steps, self.n_envs
         ro = Rollout.empty(T, E, self.obs_dim, self.action_space.shape, self.discrete)
@@ -236,6 +257,9 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             self._last_obs = self.env.reset()
             self._episode_starts = np.ones(E, dtype=bool)
             self._episode_returns = np.zeros(E)
+        sb3 = callbacks if callbacks is not None and callbacks.sb3 else None
+        if sb3 is not None:
+            sb3.rollout_start()
         if cfg.use_sde:
             self._resample_sde_noise()
         vec_normalize = unwrap_vec_normalize(self.env)  # the user's: teachers get raw observations
@@ -263,8 +287,11 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             teacher_obs = self._last_obs if vec_normalize is None else original_obs(vec_normalize)
             actions = self._apply_teachers(choices, teacher_obs, actions)  # line 18
 
-            new_obs, rewards, dones, infos = self.env.step(self._to_env_actions(actions))  # line 19
+            clipped_actions = self._to_env_actions(actions)  # (SB3's name, for callbacks)
+            new_obs, rewards, dones, infos = self.env.step(clipped_actions)  # line 19
             self.num_timesteps += E
+            # SB3's callbacks see the step (the environments' rewards) before tlac's bookkeeping
+            stopped = sb3 is not None and not sb3.step(self._sb3_locals(locals(), ro, t))
             rewards = np.asarray(rewards, dtype=np.float32).copy()
             self._episode_returns += (
                 rewards if vec_normalize is None else original_rewards(vec_normalize)
@@ -277,6 +304,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                     # time-limit truncation is not termination: bootstrap from V(final obs)
                     rewards[i] += cfg.gamma * float(self._act_heads(final)[2][0])
                 self.selector.episode_end(int(i), float(self._episode_returns[i]))
+                self._record_episode_info(infos[i])  # SB3's ep_info_buffer
                 if self.solo is not None:
                     self._deploy_if_worth(self.solo.end(int(i), float(self._episode_returns[i])))
                 self._episode_returns[i] = 0.0
@@ -293,13 +321,31 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             ro.log_prob_high[t] = np_log_softmax(high_logits)[np.arange(E), choices]
             self._last_obs = new_obs
             self._episode_starts = np.asarray(dones, dtype=bool)
+            if stopped:  # as SB3: no update on a rollout that a callback cut short
+                return None
         last_values = self._act_heads(self._last_obs)[2]
         ro.advantages, ro.returns = compute_gae(
             ro.rewards, ro.values, ro.dones, last_values, cfg.gamma, cfg.gae_lambda
         )
         if self.recorder is not None:
             self.recorder.record_selections(self.num_timesteps, ro.choices, ro.obs)
+        if sb3 is not None:
+            sb3.rollout_end(self._sb3_locals(locals(), ro, T))
         return ro
+
+    def _sb3_locals(self, local_vars: dict[str, Any], ro: Rollout, n_steps: int) -> dict[str, Any]:
+        """:meth:`collect`'s variables, with the names of SB3's ``collect_rollouts`` that they
+        lack, as SB3 callbacks read them in ``self.locals``: ``env`` (``get_env()``),
+        ``callback``, ``rollout_buffer`` (this rollout, filled so far), ``n_rollout_steps`` and
+        ``n_steps`` (the steps collected before this one)."""
+        return {
+            **local_vars,
+            "env": self.get_env(),
+            "callback": local_vars["callbacks"],
+            "rollout_buffer": ro,
+            "n_rollout_steps": self.config.n_steps,
+            "n_steps": n_steps,
+        }
 
     def update(self, ro: Rollout, progress_remaining: float) -> dict[str, float]:
         """Epochs of minibatch updates of both levels and the shared critic (lines 5-9)."""
@@ -687,9 +733,20 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         if self.torch_threads is not None:
             torch.set_num_threads(self.torch_threads)
         t0, last_bar = time.time(), 0.0
-        callbacks = LearnCallbacks(callback, self)
+        self._new_info_buffers(reset_num_timesteps)
+        learn_locals = {  # SB3's names, as its callbacks read them at on_training_start
+            "total_timesteps": end_steps,
+            "callback": callback,
+            "log_interval": log_interval,
+            "tb_log_name": tb_log_name,
+            "reset_num_timesteps": reset_num_timesteps,
+            "progress_bar": progress_bar,
+        }
+        callbacks = LearnCallbacks(callback, self, learn_locals, per_step=True)
         while self.num_timesteps < end_steps:
-            ro = self.collect()
+            ro = self.collect(callbacks)
+            if ro is None:  # an SB3 callback stopped training
+                break
             counts = np.bincount(ro.choices.reshape(-1), minlength=self.n_choices)
             usage += counts
             logged_usage += counts

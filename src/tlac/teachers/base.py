@@ -4,7 +4,8 @@ A teacher is never trained and never pickled into a checkpoint (paper, section 3
 are fixed). Three kinds of objects are accepted by :func:`as_teacher`:
 
 * an object with a batched ``predict(obs_batch) -> action_batch`` (a :class:`Teacher`);
-* a stable-baselines3 model, whose ``predict`` returns ``(actions, state)``;
+* a stable-baselines3 model, or its policy (``model.policy``, a ``BasePolicy`` as imitation's
+  BC trainer gives), whose ``predict`` returns ``(actions, state)``;
 * a plain function from ONE observation to ONE action (a person's controller).
 
 >>> import numpy as np, gymnasium as gym
@@ -88,12 +89,14 @@ class NamedTeacher:
 
 
 def _is_sb3_model(obj: Any) -> bool:
+    """Whether ``obj`` is an SB3 model or policy: its ``predict`` returns ``(actions, state)``."""
     # an object cannot be an SB3 model unless SB3 is loaded: skip its (slow) import otherwise
     if "stable_baselines3" not in sys.modules:
         return False
     from stable_baselines3.common.base_class import BaseAlgorithm
+    from stable_baselines3.common.policies import BasePolicy
 
-    return isinstance(obj, BaseAlgorithm)
+    return isinstance(obj, BaseAlgorithm | BasePolicy)
 
 
 def as_teacher(obj: Any, action_space: gym.Space, name: str | None = None) -> Teacher:
@@ -110,7 +113,7 @@ def as_teacher(obj: Any, action_space: gym.Space, name: str | None = None) -> Te
         return FunctionTeacher(obj, action_space, name or getattr(obj, "__name__", "function"))
     raise TeacherError(
         f"cannot use {obj!r} as a teacher; expected an object with predict(obs_batch), "
-        "a stable-baselines3 model, or a function from one observation to one action"
+        "a stable-baselines3 model or policy, or a function from one observation to one action"
     )
 
 

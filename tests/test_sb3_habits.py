@@ -1,0 +1,234 @@
+"""What stable-baselines3 users do out of habit works on TL-AC (issue 65): SB3's own callbacks
+and callbacks reading ``self.locals`` at every step, ``model.ep_info_buffer``, ``seed=None``,
+one teacher without a list, an SB3 policy as a teacher, and SB3's argument order refused in
+one line."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+from stable_baselines3.common.callbacks import (
+    BaseCallback,
+    ProgressBarCallback,
+    StopTrainingOnMaxEpisodes,
+)
+from stable_baselines3.common.vec_env import DummyVecEnv
+
+from tlac import TLAC
+from tlac.errors import ConfigError
+
+SMALL = dict(n_steps=32, batch_size=32)
+RICH_IS_EXPERIMENTAL = pytest.mark.filterwarnings("ignore:rich is experimental")
+
+
+class Succeeds(gym.Wrapper):
+    """CartPole that says, at the end of an episode, whether the pole stood 20 steps."""
+
+    def reset(self, **kwargs: Any) -> Any:
+        self.steps = 0
+        return self.env.reset(**kwargs)
+
+    def step(self, action: Any) -> Any:
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        self.steps += 1
+        if terminated or truncated:
+            info = {**info, "is_success": self.steps >= 20}
+        return obs, reward, terminated, truncated, info
+
+
+def cartpole(n: int = 2) -> DummyVecEnv:
+    venv = DummyVecEnv([lambda: Succeeds(gym.make("CartPole-v1")) for _ in range(n)])
+    venv.seed(0)
+    return venv
+
+
+def left(obs: np.ndarray) -> int:
+    """A poor teacher: always push left (short episodes)."""
+    return 0
+
+
+def model(n_envs: int = 2, **settings: Any) -> TLAC:
+    torch.set_num_threads(1)
+    return TLAC(cartpole(n_envs), teachers=[left], seed=0, **{**SMALL, **settings})
+
+
+def same_weights(a: TLAC, b: TLAC) -> bool:
+    weights = b.net.state_dict()
+    return all(torch.equal(w, weights[k]) for k, w in a.net.state_dict().items())
+
+
+class ReadsLocals(BaseCallback):
+    """Keeps what SB3's collect_rollouts shows a callback at every step, and the returns it
+    adds up from the rewards and dones."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.total_timesteps = None
+        self.shapes: list[tuple[Any, ...]] = []
+        self.n_steps: list[int] = []
+        self.returns: list[float] = []
+        self.rollout_ends: list[Any] = []
+
+    def _on_training_start(self) -> None:
+        self.total_timesteps = self.locals["total_timesteps"]
+        self.running = np.zeros(self.training_env.num_envs)
+
+    def _on_step(self) -> bool:
+        loc = self.locals
+        infos, dones, rewards = loc["infos"], loc["dones"], loc["rewards"]
+        new_obs, actions = loc["new_obs"], loc["actions"]
+        self.shapes.append((len(infos), dones.shape, rewards.shape, new_obs.shape, actions.shape))
+        self.n_steps.append(loc["n_steps"])
+        assert loc["env"] is self.training_env and loc["n_rollout_steps"] == SMALL["n_steps"]
+        self.running += rewards
+        for i in np.flatnonzero(dones):
+            self.returns.append(float(self.running[i]))
+            self.running[i] = 0.0
+        return True
+
+    def _on_rollout_end(self) -> None:
+        self.rollout_ends.append(self.locals["rollout_buffer"])
+
+
+def test_stop_training_on_max_episodes_stops_after_them() -> None:
+    m = model(n_envs=1)
+    m.learn(5000, callback=StopTrainingOnMaxEpisodes(max_episodes=3))
+    assert len(m.ep_info_buffer) == 3  # stopped at the step that ended the third episode
+    assert m.num_timesteps == sum(ep["l"] for ep in m.ep_info_buffer)
+
+
+@RICH_IS_EXPERIMENTAL
+def test_sb3_progress_bar_callback_runs() -> None:
+    m = model()
+    bar = ProgressBarCallback()
+    m.learn(256, callback=bar)
+    assert bar.pbar.total == 256 and bar.pbar.n == m.num_timesteps == 256
+
+
+def test_a_callback_reads_sb3s_locals_at_every_step() -> None:
+    m = model()
+    seen = ReadsLocals()
+    m.learn(256, callback=seen)
+    assert seen.total_timesteps == 256
+    assert seen.shapes == [(2, (2,), (2,), (2, 4), (2,))] * 128
+    assert seen.n_steps == list(range(32)) * 4
+    assert len(seen.rollout_ends) == 4 and seen.rollout_ends[-1].returns.shape == (32, 2)
+    # the finished episodes' returns, as SB3 keeps them from the Monitor-style infos
+    assert seen.returns and [ep["r"] for ep in m.ep_info_buffer] == seen.returns[-100:]
+    assert [ep["l"] for ep in m.ep_info_buffer] == [int(r) for r in seen.returns[-100:]]
+    assert list(m.ep_success_buffer) == [r >= 20 for r in seen.returns[-100:]]
+
+
+@RICH_IS_EXPERIMENTAL
+def test_callbacks_change_nothing_in_training() -> None:
+    alone, watched = model(), model()
+    alone.learn(256)
+    watched.learn(256, callback=[ReadsLocals(), ProgressBarCallback()])
+    assert same_weights(alone, watched)
+
+
+def test_ep_info_buffer_starts_anew_as_sb3s() -> None:
+    m = model()
+    m.learn(128)
+    kept = len(m.ep_info_buffer)
+    m.learn(64, reset_num_timesteps=False)
+    assert len(m.ep_info_buffer) > kept
+    m.learn(64)  # reset_num_timesteps=True: a new count, new episodes, new buffers
+    assert 0 < sum(ep["l"] for ep in m.ep_info_buffer) <= 64
+
+
+def test_no_seed_draws_one_as_sb3_and_records_it() -> None:
+    torch.set_num_threads(1)
+    a, b = (TLAC(cartpole(), teachers=[left], **SMALL) for _ in range(2))
+    assert a.seed != b.seed and not same_weights(a, b)
+    again = TLAC(cartpole(), teachers=[left], seed=a.seed, **SMALL)  # the recorded seed repeats
+    assert same_weights(again, a)
+    c, d = (TLAC(cartpole(), teachers=[left], seed=7, **SMALL) for _ in range(2))
+    assert c.seed == d.seed == 7 and same_weights(c, d)
+
+
+class Pushes:
+    """A batched teacher object: push towards where the pole leans."""
+
+    def predict(self, obs: np.ndarray) -> np.ndarray:
+        return (obs[:, 2] + 0.5 * obs[:, 3] > 0).astype(np.int64)
+
+
+def test_one_teacher_needs_no_list() -> None:
+    for one, name in [(left, "left"), (Pushes(), "pushes")]:
+        m = TLAC(cartpole(), teachers=one, seed=0, **SMALL)
+        assert m.teacher_names == [name] and m.n_choices == 2
+        m.learn(64)
+        assert m.num_timesteps == 64
+
+
+def test_an_sb3_policy_is_a_teacher() -> None:
+    from stable_baselines3 import PPO
+
+    torch.set_num_threads(1)
+    policy = PPO("MlpPolicy", "CartPole-v1", seed=0, device="cpu").policy  # as BC gives one
+    obs = np.random.default_rng(0).normal(size=(5, 4)).astype(np.float32)
+    for teachers in (policy, [policy, left]):
+        m = TLAC(cartpole(), teachers=teachers, seed=0, **SMALL)
+        assert m.teacher_names[0] == "actorcriticpolicy"
+        advice = m.teachers[0].predict(obs)
+        assert np.array_equal(advice, policy.predict(obs, deterministic=True)[0])
+        m.learn(64)
+
+
+def test_sb3s_argument_order_is_one_clear_error() -> None:
+    for call in (
+        lambda: TLAC("MlpPolicy", env=cartpole()),
+        lambda: TLAC("MlpPolicy", cartpole()),
+    ):
+        with pytest.raises(
+            ConfigError, match=r"environment first .*TLAC\(env, teachers=\["
+        ) as info:
+            call()
+        assert "policy='MlpPolicy'" in str(info.value) and "\n" not in str(info.value)
+    with pytest.raises(ConfigError, match="TLAC got env twice"):
+        TLAC(cartpole(), env=cartpole())
+
+
+def greedy(m: TLAC, obs: np.ndarray) -> np.ndarray:
+    return m.predict(obs, deterministic=True)[0]
+
+
+@pytest.mark.parametrize("env_id", ["CartPole-v1", "Pendulum-v1"])
+def test_get_and_set_parameters_round_trip(tmp_path, env_id: str) -> None:
+    torch.set_num_threads(1)
+    make = lambda seed: TLAC(gym.make(env_id), seed=seed, **SMALL)  # noqa: E731
+    obs = np.stack([gym.make(env_id).observation_space.sample() for _ in range(32)])
+    trained = make(0).learn(64)
+    trained.deployed = trained._snapshot_student()  # what predict deploys comes along too
+    params = trained.get_parameters()
+    assert params["deployed"] is not None and params["normalizer"] is not None
+    other = make(1)
+    assert not np.array_equal(greedy(other, obs), greedy(trained, obs))
+    other.set_parameters(params)
+    assert np.array_equal(greedy(other, obs), greedy(trained, obs))
+    before = greedy(trained, obs)
+    trained.deployed = None
+    trained.learn(64)
+    trained.set_parameters(params)  # a copy: the training since changed nothing in it
+    assert np.array_equal(greedy(trained, obs), before)
+    fresh = make(2)
+    fresh.set_parameters(trained.save(tmp_path / "model"))  # or a model file
+    assert np.array_equal(greedy(fresh, obs), before)
+
+
+def test_set_parameters_names_what_does_not_fit() -> None:
+    m = model()
+    params = m.get_parameters()
+    with pytest.raises(ConfigError, match=r"missing \['optimizer'\]"):
+        m.set_parameters({k: v for k, v in params.items() if k != "optimizer"})
+    m.set_parameters({"net": params["net"]}, exact_match=False)
+    with pytest.raises(ConfigError, match=r"unknown \['policy'\]"):
+        m.set_parameters({**params, "policy": {}})
+    wider = TLAC(cartpole(), teachers=[left], seed=0, net_arch_low=[8, 8], **SMALL)
+    with pytest.raises(ConfigError, match="does not fit this model"):
+        wider.set_parameters(params)
