@@ -1,10 +1,12 @@
 """What stable-baselines3 users do out of habit works on TL-AC (issue 65): SB3's own callbacks
 and callbacks reading ``self.locals`` at every step, ``model.ep_info_buffer``, ``seed=None``,
-one teacher without a list, an SB3 policy as a teacher, and SB3's argument order refused in
-one line."""
+one teacher without a list, an SB3 policy as a teacher, SB3's argument order refused in
+one line, and SB3's schedules (functions of the progress remaining, decaying to 0)."""
 
 from __future__ import annotations
 
+import warnings
+from collections.abc import Callable
 from typing import Any
 
 import gymnasium as gym
@@ -232,3 +234,57 @@ def test_set_parameters_names_what_does_not_fit() -> None:
     wider = TLAC(cartpole(), teachers=[left], seed=0, net_arch_low=[8, 8], **SMALL)
     with pytest.raises(ConfigError, match="does not fit this model"):
         wider.set_parameters(params)
+
+
+def linear_schedule(initial: float) -> Callable[[float], float]:
+    """rl-zoo's linear schedule: from ``initial`` down to 0 as the progress remaining goes
+    from 1 to 0."""
+    return lambda progress_remaining: progress_remaining * initial
+
+
+def learning_rates(m: TLAC, steps: int) -> list[float]:
+    """The learning rate of each update of ``m.learn(steps)``."""
+    rates: list[float] = []
+    m.learn(steps, callback=lambda m: rates.append(m.optimizer.param_groups[0]["lr"]))
+    return rates
+
+
+def test_sb3_schedules_decay_to_zero() -> None:
+    decaying = [7.5e-4, 5e-4, 2.5e-4, 0.0]  # 4 updates of 64 steps
+    by_function = model(learning_rate=linear_schedule(1e-3), clip_range=lambda p: 0.2 * p)
+    assert learning_rates(by_function, 256) == pytest.approx(decaying)
+    by_data = model(learning_rate={"linear": [1e-3, 0]}, clip_range={"linear": [0.2, 0.0]})
+    assert learning_rates(by_data, 256) == pytest.approx(decaying)
+    assert same_weights(by_function, by_data)  # the same arithmetic: p * 1e-3 either way
+    with pytest.raises(ConfigError, match=r"learning_rate must be >= 0 at the end"):
+        model(learning_rate={"linear": [1e-3, -1e-4]})
+    with pytest.raises(ConfigError, match=r"learning_rate must be > 0, got 0"):
+        model(learning_rate={"linear": [0, 1e-3]})
+
+
+def test_a_schedule_factory_given_uncalled_is_one_line() -> None:
+    with pytest.raises(ConfigError, match=r"returns a number, > 0 at the start \(f\(1.0\) gave <"):
+        model(learning_rate=linear_schedule)  # linear_schedule(3e-4) was meant
+    with pytest.raises(ConfigError, match=r"\(f\(1.0\) raised TypeError"):
+        model(clip_range=lambda: 0.2)
+
+
+def test_a_function_schedule_is_saved_as_its_value_then(tmp_path) -> None:
+    path = tmp_path / "half.pt"
+
+    def save_at_half(m: TLAC) -> None:
+        if m.num_timesteps == 128:
+            m.save(path)
+
+    model(learning_rate=linear_schedule(1e-3)).learn(256, callback=save_at_half)
+    with pytest.warns(
+        UserWarning,
+        match=r"saved as its value then \(learning_rate 0.0005\).*custom_objects=\{'learning_rate': f\}",
+    ):
+        assert TLAC.load(path).config.learning_rate == 5e-4
+    f = linear_schedule(1e-3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert TLAC.load(path, custom_objects={"learning_rate": f}).config.learning_rate is f
+    with pytest.raises(ConfigError, match="saved as its value then"):
+        TLAC.load(path, env=cartpole(), teachers=[left], resume=True)  # not the same schedule

@@ -74,11 +74,6 @@ def test_sb3_callbacks_without_spurious_warnings(tmp_path, recwarn) -> None:
     ]
 
 
-def test_a_function_schedule_is_refused_with_the_reason() -> None:
-    with pytest.raises(ConfigError, match="a function cannot be saved in a tlac model file"):
-        TLAC("CartPole-v1", learning_rate=lambda progress: 3e-4 * progress)
-
-
 def test_the_headline_figures_reach_the_logs(tmp_path) -> None:
     """teacher/* shares reach SB3's logger (TensorBoard) from Python; a run folder's
     config.yaml holds every resolved setting and progress.csv the student-alone evaluation

@@ -2,7 +2,8 @@
 
 Presets live in ``tlac/presets/<name>.yaml``, one mapping per algorithm
 (``tlac``, ``ppo``, ``a2c``, ``dqn-tlql``, ``ac-teach``). A schedule is either a number or
-``{linear: [start, end]}`` (never an ``eval``'d string, unlike rl-zoo):
+``{linear: [start, end]}`` (never an ``eval``'d string, unlike rl-zoo), or, given from Python,
+SB3's ``Schedule``: a function of the progress remaining (rl-zoo's ``linear_schedule(3e-4)``):
 
 >>> sched = make_schedule({"linear": [1.0, 0.0]})
 >>> sched(1.0), sched(0.25)   # argument: progress remaining, 1 -> 0 as in SB3
@@ -50,7 +51,10 @@ def load_preset(name: str, algo: str) -> dict[str, Any]:
 
 
 def validate_schedule(field: str, value: Any) -> None:
-    """Raise :class:`ConfigError` unless ``value`` is a number or ``{linear: [start, end]}``."""
+    """Raise :class:`ConfigError` unless ``value`` is a number, ``{linear: [start, end]}`` or a
+    function (SB3's ``Schedule``)."""
+    if callable(value):
+        return
     if isinstance(value, bool):
         raise ConfigError(f"{field}: expected a number or {{linear: [start, end]}}, got {value!r}")
     if isinstance(value, int | float):
@@ -67,8 +71,11 @@ def validate_schedule(field: str, value: Any) -> None:
 
 
 def make_schedule(value: Any, field: str = "schedule") -> Schedule:
-    """Turn a number or ``{linear: [start, end]}`` into ``f(progress_remaining) -> value``."""
+    """Turn a number or ``{linear: [start, end]}`` into ``f(progress_remaining) -> value``; a
+    function is that already (SB3's ``Schedule``), and is returned as it is."""
     validate_schedule(field, value)
+    if callable(value):
+        return value
     if isinstance(value, dict):
         start, end = (float(v) for v in value["linear"])
         return lambda progress_remaining: end + progress_remaining * (start - end)

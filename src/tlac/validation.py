@@ -128,31 +128,58 @@ def _type_error(algo: str, name: str, expected: str, value: Any) -> ConfigError:
     return Checks(algo).error(name, expected, value)
 
 
-def _check_number(algo: str, name: str, value: Any, integer: bool) -> None:
+def _check_number(
+    algo: str, name: str, value: Any, integer: bool, schedule_end: bool = False
+) -> None:
+    """A finite number (whole where ``integer``), > 0 for :data:`POSITIVE_SETTINGS`, or
+    >= 0 at a schedule's end (``schedule_end``: SB3's schedules decay to 0)."""
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
         raise _type_error(algo, name, "an integer" if integer else "a number", value)
     if integer and not isinstance(value, int | np.integer):
         raise _type_error(algo, name, "an integer", value)
     if not np.isfinite(value):
         raise _type_error(algo, name, "a finite number", value)
-    if name in POSITIVE_SETTINGS and value <= 0:
+    if name in POSITIVE_SETTINGS and schedule_end and value < 0:
+        raise _type_error(algo, name, ">= 0 at the end of its schedule", value)
+    if name in POSITIVE_SETTINGS and not schedule_end and value <= 0:
         raise _type_error(algo, name, "> 0", value)
 
 
 def _check_schedule(algo: str, name: str, value: dict[str, Any]) -> None:
-    """``{linear: [start, end]}`` with two finite end points (> 0 where the setting must be)."""
+    """``{linear: [start, end]}`` with two finite end points (where the setting must be > 0:
+    the start > 0, the end >= 0)."""
     points = value.get("linear") if len(value) == 1 else None
     if not isinstance(points, list | tuple) or len(points) != 2:
         raise _type_error(algo, name, "a number or {linear: [start, end]}", value)
-    for point in points:
-        _check_number(algo, name, point, integer=False)
+    _check_number(algo, name, points[0], integer=False)
+    _check_number(algo, name, points[1], integer=False, schedule_end=True)
+
+
+def _check_function_schedule(algo: str, name: str, value: Any) -> None:
+    """SB3's ``Schedule``: a function of the progress remaining (1 -> 0) that gives a finite
+    number; tried once, at the start (1.0), so that a schedule's factory given uncalled
+    (``linear_schedule`` for ``linear_schedule(3e-4)``) is said here rather than mid-run."""
+    expected = "a function of the progress remaining (1 -> 0) that returns a number"
+    if name in POSITIVE_SETTINGS:
+        expected += ", > 0 at the start"
+    try:
+        start = value(1.0)
+    except Exception as exc:  # noqa: BLE001 - whatever the user's function raises, said in one line
+        problem = " ".join(f"{type(exc).__name__}: {exc}".split())
+        raise _type_error(algo, name, f"{expected} (f(1.0) raised {problem:.120})", value) from None
+    try:
+        _check_number(algo, name, start, integer=False)
+    except ConfigError:
+        gave = " ".join(repr(start).split())
+        raise _type_error(algo, name, f"{expected} (f(1.0) gave {gave:.60})", value) from None
 
 
 def check_setting_types(cls: type, values: dict[str, Any], algo: str) -> None:
     """Check every given setting against the type annotation of the dataclass field of the
     same name: booleans are ``true``/``false`` (not strings or numbers), integers are whole,
     numbers are finite (no NaN, no infinity), and the settings of :data:`POSITIVE_SETTINGS`
-    are > 0. Schedules (``{linear: [start, end]}``) have their end points checked. Raises one
+    are > 0. Schedules (``{linear: [start, end]}``) have their end points checked (the end
+    may be 0), and a function schedule its value at the start. Raises one
     :class:`ConfigError` naming the setting and what it accepts.
 
     >>> from dataclasses import dataclass
@@ -188,15 +215,8 @@ def _check_type(algo: str, name: str, value: Any, hint: Any) -> None:
             raise _type_error(algo, name, "true or false", value)
     elif hint is int or text in ("int", "int | None", "typing.Optional[int]"):
         _check_number(algo, name, value, integer=True)
-    elif callable(value) and "dict" in text:  # SB3's f(progress_remaining)
-        raise _type_error(
-            algo,
-            name,
-            "a number or {linear: [start, end]} (a function cannot be saved in a tlac model "
-            "file, which holds plain data and loads without running code; SB3's "
-            "linear_schedule is {linear: [start, end]})",
-            value,
-        )
+    elif callable(value) and "Callable" in text:  # SB3's f(progress_remaining)
+        _check_function_schedule(algo, name, value)
     elif isinstance(value, dict) and "dict" in text:
         _check_schedule(algo, name, value)
     elif "float" in text:

@@ -8,6 +8,7 @@ preset and from SB3's ``policy_kwargs``.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -18,7 +19,13 @@ from tlac.presets import load_preset, validate_schedule
 from tlac.selectors import SELECTOR_NAMES
 from tlac.validation import Checks, from_mapping
 
-Schedule = float | dict
+Schedule = float | dict | Callable[[float], float]
+"""A number, ``{linear: [start, end]}`` or (from Python) SB3's ``Schedule``, a function of the
+progress remaining (1 -> 0); a model file keeps a function's value at save time
+(:meth:`tlac.algorithms.tlac_io.TLACPersistence.save`)."""
+
+SCHEDULES = ("learning_rate", "clip_range", "target_kl", "distill_coef")
+"""The settings that take a schedule."""
 
 VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
     "graduate": {
@@ -106,9 +113,10 @@ class TLACConfig:
     n_epochs: int = 5
     """Passes over each rollout (Algorithm 1, line 5)."""
     learning_rate: Schedule = 7e-4
-    """Number or {linear: [start, end]}."""
+    """Number, {linear: [start, end]} (the end may be 0) or, from Python, a function of the
+    progress remaining (SB3's ``Schedule``, e.g. ``lambda p: 3e-4 * p``)."""
     clip_range: Schedule = 0.2
-    """PPO clip range of both levels' ratios; number or {linear: [start, end]}."""
+    """PPO clip range of both levels' ratios; a schedule as learning_rate."""
     target_kl: Schedule | None = 0.02
     """Stop before a gradient step once a level's approximate KL exceeds 1.5x this (SB3's
     rule): with update_rule joint, the larger of the two levels' KL stops the whole update;

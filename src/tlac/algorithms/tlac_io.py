@@ -39,11 +39,12 @@ from tlac.algorithms.resume import (
     restore_vec_env,
     vec_env_state,
 )
-from tlac.algorithms.tlac_config import TLACConfig
+from tlac.algorithms.tlac_config import SCHEDULES, TLACConfig
 from tlac.domains import domain_names, get_domain, make_teachers, make_vec_env
 from tlac.errors import ConfigError, TlacError
 from tlac.recording import EpisodeRecorder, MetricWindow, find_episode_recorder
 from tlac.teachers.base import Teacher, as_teacher, teacher_label, unique_names
+from tlac.validation import check_setting_types
 
 PARAMETERS = ("net", "extractor", "log_std", "optimizer", "normalizer", "deployed")
 """What :meth:`TLACPersistence.get_parameters` gives, in a model file's order."""
@@ -142,6 +143,29 @@ def read_model_file(path: Path) -> dict[str, Any]:
         hint = f" (it is {found}, from an older tlac: retrain it)" if found else ""
         raise ConfigError(f"{str(path)!r} is not a {FORMAT} model file{hint}")
     return state
+
+
+def loaded_config(
+    state: dict[str, Any], custom_objects: dict[str, Any] | None, where: str, resume: bool
+) -> TLACConfig:
+    """A model file's settings, with ``custom_objects`` (SB3's: settings by name, such as a
+    schedule function that the file kept only the value of) in place of the saved ones. A
+    function schedule not given again is loaded as its value at save time, with a warning
+    (with ``resume``, an error: the resumed run would not follow the same schedule)."""
+    custom = dict(custom_objects or {})
+    functions = [name for name in state.get("functions", []) if name not in custom]
+    if functions:
+        values = ", ".join(f"{name} {state['config'][name]:.3g}" for name in functions)
+        message = (
+            f"{where}: a function schedule was saved as its value then ({values}), a model "
+            "file holding plain data; to follow it again pass it to TLAC.load as "
+            f"custom_objects={{{functions[0]!r}: f}}"
+        )
+        if resume:
+            raise ConfigError(message)
+        warnings.warn(message, stacklevel=3)
+    check_setting_types(TLACConfig, custom, "TL-AC")
+    return TLACConfig(**{**state["config"], **custom})
 
 
 def file_parameters(state: dict[str, Any]) -> dict[str, Any]:
@@ -275,6 +299,9 @@ class TLACPersistence:
         run_state: dict[str, Any] | None = None,
     ) -> Path:
         """Save the networks, optimizer and settings (never the teachers) to ``path`` (.pt).
+        A schedule given as a function (SB3's ``Schedule``) is saved as its value at this step:
+        a model file holds plain data, and :meth:`load` runs no code from it; ``load`` warns,
+        and takes the function again as ``custom_objects``.
 
         ``training_state``: also everything that training needs to continue exactly as if it
         had never stopped (random-number generators, the teachers' generators, the advice
@@ -283,9 +310,13 @@ class TLACPersistence:
         ``run_state``: plain data saved alongside under ``"run"`` (``tlac.run``: what the run
         folder's writers need to continue), in the same file so that both change together."""
         path = checkpoint_path(path)
+        config = dataclasses.asdict(self.config)
+        functions = [name for name in SCHEDULES if callable(config[name])]
+        for name in functions:  # SB3's Schedule: its value now (load warns of it)
+            config[name] = float(config[name](self._schedule_progress()))
         state = {
             "format": FORMAT,
-            "config": dataclasses.asdict(self.config),
+            "config": config,
             "seed": self.seed,
             "num_timesteps": self.num_timesteps,
             "observation_space": space_to_data(self.observation_space),
@@ -295,6 +326,8 @@ class TLACPersistence:
             "policy": self.obs_policy.to_data(),
             **self._parameters(),
         }
+        if functions:
+            state["functions"] = functions
         vec_normalize = self.get_vec_normalize_env()
         if vec_normalize is not None:  # the user's VecNormalize: its statistics, as tensors
             state["vec_normalize"] = vec_normalize_state(vec_normalize)
@@ -303,6 +336,14 @@ class TLACPersistence:
         if run_state is not None:
             state["run"] = run_state
         return atomic_torch_save(state, path)
+
+    def _schedule_progress(self) -> float:
+        """The progress remaining (1 -> 0) of the schedules at this step: in the ``learn`` call
+        in progress or last made (1.0 before any)."""
+        if self._schedule is None:
+            return 1.0
+        origin, horizon = self._schedule
+        return max(1.0 - (self.num_timesteps - origin) / horizon, 0.0)
 
     def _parameters(self) -> dict[str, Any]:
         """The :data:`PARAMETERS` of a model file (live state dicts, not copies)."""
@@ -493,9 +534,13 @@ class TLACPersistence:
         teachers: Sequence[Any] | None = None,
         resume: bool = False,
         trust_pickle: bool = False,
+        custom_objects: dict[str, Any] | None = None,
     ) -> _Model:
         """Load a saved model. Pass ``env`` (and, to train on with advice, the same number of
         ``teachers`` as at save time) to continue training; ``predict`` needs neither.
+        ``custom_objects``: as SB3's, settings by name that replace the saved ones
+        (``{"learning_rate": f}``: a schedule function, which a model file keeps only the
+        value of).
 
         ``resume``: restore the training state of a file saved with ``training_state=True``
         (needs ``env`` and the same ``teachers``), so that ``learn`` continues exactly where
@@ -510,7 +555,8 @@ class TLACPersistence:
             path = path.with_name(path.name + ".pt")
         state = read_model_file(path)
         try:
-            model = cls._from_state(state, path, env, teachers, resume)
+            config = loaded_config(state, custom_objects, repr(str(path)), resume)
+            model = cls._from_state(state, config, path, env, teachers, resume)
         except TlacError:
             raise
         except (KeyError, TypeError, ValueError, RuntimeError, IndexError) as exc:
@@ -526,15 +572,17 @@ class TLACPersistence:
     def _from_state(
         cls: type[_Model],
         state: dict[str, Any],
+        config: TLACConfig,
         path: Path,
         env: Any,
         teachers: Sequence[Any] | None,
         resume: bool,
     ) -> _Model:
-        """:meth:`load` once the file is read: the model its ``state`` describes."""
+        """:meth:`load` once the file is read: the model its ``state`` describes, with the
+        settings ``config``."""
         model = cls.__new__(cls)
         model.obs_policy = ObsPolicy.from_data(state.get("policy"))
-        model._setup(TLACConfig(**state["config"]), state["seed"], env, teachers, None, state)
+        model._setup(config, state["seed"], env, teachers, None, state)
         model._load_parameters(file_parameters(state), str(path))
         vec_normalize = model.get_vec_normalize_env()
         if vec_normalize is not None and state.get("vec_normalize") is not None:
