@@ -288,3 +288,39 @@ def test_a_function_schedule_is_saved_as_its_value_then(tmp_path) -> None:
         assert TLAC.load(path, custom_objects={"learning_rate": f}).config.learning_rate is f
     with pytest.raises(ConfigError, match="saved as its value then"):
         TLAC.load(path, env=cartpole(), teachers=[left], resume=True)  # not the same schedule
+
+
+def test_load_takes_sb3s_device_and_custom_objects(tmp_path) -> None:
+    path = model().save(tmp_path / "m")
+    for device in ("auto", "cpu", torch.device("cpu")):
+        assert TLAC.load(path, device=device).num_timesteps == 0
+    with pytest.raises(ConfigError, match=r"^device 'cuda': tlac runs on the CPU"):
+        TLAC.load(path, device="cuda")
+    changed = {"learning_rate": 1e-4, "clip_range": 0.1}
+    loaded = TLAC.load(path, env=cartpole(), teachers=[left], custom_objects=changed)
+    assert (loaded.config.learning_rate, loaded.config.clip_range) == (1e-4, 0.1)
+    assert learning_rates(loaded, 64) == [1e-4]
+    sb3s_name = TLAC.load(path, custom_objects={"lr_schedule": linear_schedule(2e-4)})
+    assert sb3s_name.config.learning_rate(0.5) == 1e-4
+    with pytest.raises(ConfigError, match=r"^custom_objects: unknown \['lr'\]; it takes TL-AC"):
+        TLAC.load(path, custom_objects={"lr": 1e-4})
+    with pytest.raises(ConfigError, match=r"^TL-AC setting learning_rate must be > 0, got -1"):
+        TLAC.load(path, custom_objects={"learning_rate": -1})
+
+
+def test_an_sb3_zip_is_named_as_one(tmp_path) -> None:
+    from stable_baselines3 import PPO
+
+    torch.set_num_threads(1)
+    PPO("MlpPolicy", "CartPole-v1", device="cpu").save(tmp_path / "ppo")  # writes ppo.zip
+    for call in (
+        lambda: TLAC.load(tmp_path / "ppo"),
+        lambda: TLAC.load(tmp_path / "ppo.zip"),
+        lambda: model().set_parameters(str(tmp_path / "ppo.zip")),
+    ):
+        with pytest.raises(
+            ConfigError,
+            match=r"ppo.zip' is a stable-baselines3 model, not a TL-AC one: load it with its "
+            r"SB3 class and pass it as a teacher, e.g. TLAC\(env, teachers=\[PPO.load\(path\)\]\)",
+        ):
+            call()

@@ -145,6 +145,16 @@ class SB3Compat:
         return bool(self.verbose or self.tensorboard_log is not None)
 
 
+def check_device(device: Any) -> None:
+    """SB3's ``device`` as tlac accepts it: ``"auto"`` or ``"cpu"`` (a ``torch.device`` too);
+    anything else is a ConfigError saying that tlac runs on the CPU."""
+    if str(device) not in ("auto", "cpu"):
+        raise ConfigError(
+            f"device {device!r}: tlac runs on the CPU ('auto' or 'cpu'); its networks are "
+            "small and acting runs in NumPy, where a GPU would only add transfers"
+        )
+
+
 def check_sb3_arguments(
     verbose: Any, tensorboard_log: Any, device: Any, torch_threads: Any
 ) -> None:
@@ -153,11 +163,7 @@ def check_sb3_arguments(
         raise ConfigError(f"verbose must be 0, 1 or 2 (as in SB3), got {verbose!r}")
     if tensorboard_log is not None and not isinstance(tensorboard_log, str | Path):
         raise ConfigError(f"tensorboard_log must be a folder path or None, got {tensorboard_log!r}")
-    if device not in ("auto", "cpu"):
-        raise ConfigError(
-            f"device {device!r}: tlac runs on the CPU ('auto' or 'cpu'); its networks are "
-            "small and acting runs in NumPy, where a GPU would only add transfers"
-        )
+    check_device(device)
     if torch_threads is not None and (
         not isinstance(torch_threads, int) or isinstance(torch_threads, bool) or torch_threads < 1
     ):

@@ -9,6 +9,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import warnings
+import zipfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TypeVar
@@ -18,6 +19,7 @@ import numpy as np
 import torch
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 
+from tlac.algorithms.callbacks import check_device
 from tlac.algorithms.common import (
     CheckedEnv,
     atomic_torch_save,
@@ -132,11 +134,25 @@ def as_teachers(
     return [as_teacher(t, action_space, n) for t, n in zip(teachers, names, strict=True)]
 
 
+def is_sb3_zip(path: Path) -> bool:
+    """Whether ``path`` is a model saved by SB3: a zip archive with SB3's ``data`` (its
+    settings, as JSON) at the top (a torch file is a zip too, with its entries in a folder)."""
+    if not zipfile.is_zipfile(path):
+        return False
+    with zipfile.ZipFile(path) as archive:
+        return bool({"data", "_stable_baselines3_version"} & set(archive.namelist()))
+
+
 def read_model_file(path: Path) -> dict[str, Any]:
     """The contents of the TL-AC model file ``path`` (read without running code from it); a
     missing file or another format is a ConfigError naming it."""
     if not path.exists():
         raise ConfigError(f"no TL-AC model at {str(path)!r}")
+    if is_sb3_zip(path):
+        raise ConfigError(
+            f"{str(path)!r} is a stable-baselines3 model, not a TL-AC one: load it with its "
+            "SB3 class and pass it as a teacher, e.g. TLAC(env, teachers=[PPO.load(path)])"
+        )
     state = safe_torch_load(path, "TL-AC model")
     if not isinstance(state, dict) or state.get("format") != FORMAT:
         found = state.get("format") if isinstance(state, dict) else None
@@ -152,7 +168,20 @@ def loaded_config(
     schedule function that the file kept only the value of) in place of the saved ones. A
     function schedule not given again is loaded as its value at save time, with a warning
     (with ``resume``, an error: the resumed run would not follow the same schedule)."""
+    if custom_objects is not None and not isinstance(custom_objects, dict):
+        raise ConfigError(
+            "custom_objects must be a dict of TL-AC settings by name (as SB3's), got "
+            f"{type(custom_objects).__name__}"
+        )
     custom = dict(custom_objects or {})
+    if "lr_schedule" in custom:  # SB3's name of the learning rate's schedule
+        custom.setdefault("learning_rate", custom.pop("lr_schedule"))
+    unknown = sorted(set(custom) - {f.name for f in dataclasses.fields(TLACConfig)})
+    if unknown:
+        raise ConfigError(
+            f"custom_objects: unknown {unknown}; it takes TL-AC settings by name "
+            "(TLACConfig's), e.g. {'learning_rate': 1e-4}"
+        )
     functions = [name for name in state.get("functions", []) if name not in custom]
     if functions:
         values = ", ".join(f"{name} {state['config'][name]:.3g}" for name in functions)
@@ -409,8 +438,7 @@ class TLACPersistence:
         a TL-AC model file, into a model of the same spaces and networks. ``exact_match``:
         every name of :meth:`get_parameters` must be given (False: those given only).
         ``device``: ``"auto"`` or ``"cpu"``, where tlac runs."""
-        if device not in ("auto", "cpu"):
-            raise ConfigError(f"device {device!r}: tlac runs on the CPU ('auto' or 'cpu')")
+        check_device(device)
         where, params = "the dict given", load_path_or_dict
         if isinstance(params, str | Path):
             where = repr(str(params))
@@ -534,13 +562,16 @@ class TLACPersistence:
         teachers: Sequence[Any] | None = None,
         resume: bool = False,
         trust_pickle: bool = False,
+        device: str = "auto",
         custom_objects: dict[str, Any] | None = None,
     ) -> _Model:
         """Load a saved model. Pass ``env`` (and, to train on with advice, the same number of
         ``teachers`` as at save time) to continue training; ``predict`` needs neither.
-        ``custom_objects``: as SB3's, settings by name that replace the saved ones
-        (``{"learning_rate": f}``: a schedule function, which a model file keeps only the
-        value of).
+        ``device``: as SB3's, ``"auto"`` or ``"cpu"``, where tlac runs. ``custom_objects``: as
+        SB3's, settings by name that replace the saved ones (``{"learning_rate": 1e-4}``; a
+        schedule function, which a model file keeps only the value of; SB3's ``lr_schedule``
+        is ``learning_rate``). A model saved by SB3 (its .zip) is refused in one line: it is
+        loaded with its SB3 class, and TL-AC takes it as a teacher.
 
         ``resume``: restore the training state of a file saved with ``training_state=True``
         (needs ``env`` and the same ``teachers``), so that ``learn`` continues exactly where
@@ -550,9 +581,11 @@ class TLACPersistence:
         re-created in ``env``'s environments (:mod:`tlac.algorithms.resume`). Loading, with or
         without ``resume``, runs no code from the file (``torch.load(weights_only=True)``), so
         ``trust_pickle`` (the contract's, for SB3's zips) changes nothing."""
+        check_device(device)
         path = Path(path)
-        if not path.exists() and path.with_name(path.name + ".pt").exists():
-            path = path.with_name(path.name + ".pt")
+        for suffix in (".pt", ".zip"):  # save("x") writes x.pt; SB3's names end in .zip
+            if not path.exists() and path.with_name(path.name + suffix).exists():
+                path = path.with_name(path.name + suffix)
         state = read_model_file(path)
         try:
             config = loaded_config(state, custom_objects, repr(str(path)), resume)
