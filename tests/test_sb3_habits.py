@@ -324,3 +324,23 @@ def test_an_sb3_zip_is_named_as_one(tmp_path) -> None:
             r"SB3 class and pass it as a teacher, e.g. TLAC\(env, teachers=\[PPO.load\(path\)\]\)",
         ):
             call()
+
+
+def test_vec_env_subproc_is_what_is_built() -> None:
+    from stable_baselines3.common.vec_env import SubprocVecEnv
+
+    torch.set_num_threads(1)
+    m = TLAC("CartPole-v1", n_envs=2, vec_env="subproc", teachers=[left], seed=0, **SMALL)
+    try:
+        assert isinstance(m.env.venv, SubprocVecEnv) and m.env.num_envs == 2
+        m.learn(256)
+        assert m.num_timesteps == 256
+    finally:
+        m.env.close()
+    assert isinstance(TLAC("CartPole-v1", n_envs=2, seed=0, **SMALL).env.venv, DummyVecEnv)
+    # an environment already made: n_envs and vec_env would be ignored, so they are refused
+    with pytest.raises(ConfigError, match=r"^vec_env='subproc' is how TLAC makes the envir"):
+        TLAC(gym.make("CartPole-v1"), vec_env="subproc", seed=0)
+    with pytest.raises(ConfigError, match=r"^n_envs=4 .* already made, with 2: pass its id"):
+        TLAC(cartpole(2), n_envs=4, seed=0)
+    assert TLAC(cartpole(2), n_envs=2, vec_env="dummy", seed=0, **SMALL).n_envs == 2

@@ -248,11 +248,14 @@ class TLACConfig:
     selector: str = "learned"
     """High level: learned (TL-AC), random or ucb1 (per episode) -- the Figure 11 ablations."""
     n_envs: int = 1
-    """Parallel environments, used only when TLAC builds the environment from a domain name."""
+    """Parallel environments, used only when TLAC makes the environments from a name (a domain
+    or a Gymnasium id); given by name with an environment already made, it must match it."""
     vec_env: str = "dummy"
     """How TLAC steps those environments: dummy (in this process, SB3's DummyVecEnv; needed for
     an exact resume) or subproc (one process each, SB3's SubprocVecEnv; for slow
-    environments). Used only when TLAC builds the environment from a domain name."""
+    environments). Used only when TLAC makes the environments from a name (a domain or a
+    Gymnasium id); subproc given by name with an environment already made is refused, unless
+    that is a SubprocVecEnv."""
 
     def __post_init__(self) -> None:
         if self.variant not in VARIANT_DEFAULTS:

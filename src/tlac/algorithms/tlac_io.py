@@ -17,7 +17,7 @@ from typing import Any, TypeVar
 import gymnasium as gym
 import numpy as np
 import torch
-from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
+from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv
 
 from tlac.algorithms.callbacks import check_device
 from tlac.algorithms.common import (
@@ -64,12 +64,13 @@ def is_gym_id(name: str) -> bool:
 
 def as_vec_env(env: Any, n_envs: int, seed: int, vec_env: str = "dummy") -> tuple[VecEnv, Any]:
     """Accept a domain name, a Gymnasium id (``"CartPole-v1"``, made as SB3 makes it), a
-    Gymnasium env or an SB3 VecEnv; returns (vec_env, domain|None). A domain name gets
-    ``n_envs`` environments in a DummyVecEnv or (``vec_env="subproc"``) a SubprocVecEnv; a
-    Gymnasium id ``n_envs`` in a DummyVecEnv."""
+    Gymnasium env or an SB3 VecEnv; returns (vec_env, domain|None). A domain name or a
+    Gymnasium id gets ``n_envs`` environments in a DummyVecEnv or (``vec_env="subproc"``) a
+    SubprocVecEnv."""
     if isinstance(env, str) and is_gym_id(env):  # SB3's TLAC("CartPole-v1")
         env_id = env
-        env = DummyVecEnv([lambda: gym.make(env_id) for _ in range(n_envs)])
+        vec_env_class = SubprocVecEnv if vec_env == "subproc" else DummyVecEnv
+        env = vec_env_class([lambda: gym.make(env_id) for _ in range(n_envs)])
         env.seed(seed)
     if isinstance(env, str):
         if env not in domain_names():
@@ -92,6 +93,27 @@ def as_vec_env(env: Any, n_envs: int, seed: int, vec_env: str = "dummy") -> tupl
     if find_episode_recorder(venv) is None:
         venv = EpisodeRecorder(venv)
     return venv, None
+
+
+def check_made_env_settings(env: Any, settings: dict[str, Any]) -> None:
+    """``n_envs`` and ``vec_env`` say how TLAC makes the environments from a name; given (by
+    name, not by a preset) with an environment already made, they are one ConfigError line
+    unless that environment is what they ask for."""
+    if isinstance(env, str):
+        return
+    made = env.num_envs if isinstance(env, VecEnv) else 1
+    if settings.get("vec_env", "dummy") != "dummy" and not isinstance(env, SubprocVecEnv):
+        raise ConfigError(
+            f"vec_env={settings['vec_env']!r} is how TLAC makes the environments from a name "
+            "(a Gymnasium id or a domain), and this env is already made: pass its id, or "
+            "SB3's SubprocVecEnv of your environments"
+        )
+    if "n_envs" in settings and settings["n_envs"] != made:
+        raise ConfigError(
+            f"n_envs={settings['n_envs']!r} is how many environments TLAC makes from a name "
+            f"(a Gymnasium id or a domain), and this env is already made, with {made}: pass "
+            "its id, or a VecEnv of that many environments"
+        )
 
 
 def env_name(env: Any, venv: VecEnv) -> str | None:

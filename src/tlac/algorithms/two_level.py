@@ -66,6 +66,7 @@ from tlac.algorithms.tlac_config import VARIANT_DEFAULTS, TLACConfig, resolve_se
 from tlac.algorithms.tlac_heads import TLACHeads, make_optimizer
 from tlac.algorithms.tlac_io import (
     TLACPersistence,
+    check_made_env_settings,
     log_metrics,
     progress_text,
 )
@@ -162,6 +163,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         check_sb3_arguments(verbose, tensorboard_log, device, torch_threads)
         if isinstance(env, str) and env in POLICIES:
             raise ConfigError(policy_first_error(env))
+        check_made_env_settings(env, settings)
         self.obs_policy, settings = ObsPolicy.from_arguments(policy, settings)
         self.verbose, self.tensorboard_log, self.torch_threads = (
             int(verbose),
