@@ -344,3 +344,30 @@ def test_vec_env_subproc_is_what_is_built() -> None:
     with pytest.raises(ConfigError, match=r"^n_envs=4 .* already made, with 2: pass its id"):
         TLAC(cartpole(2), n_envs=4, seed=0)
     assert TLAC(cartpole(2), n_envs=2, vec_env="dummy", seed=0, **SMALL).n_envs == 2
+
+
+class CountsChoices(BaseCallback):
+    """Adds up the high level's choices of every rollout."""
+
+    def __init__(self, n_choices: int) -> None:
+        super().__init__()
+        self.counts = np.zeros(n_choices)
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
+        choices = self.locals["rollout_buffer"].choices.reshape(-1)
+        self.counts += np.bincount(choices, minlength=len(self.counts))
+
+
+def test_the_progress_bars_last_shares_are_the_whole_calls(capsys) -> None:
+    torch.set_num_threads(1)
+    m = TLAC(cartpole(), teachers=[left, Pushes()], seed=0, **SMALL)
+    counted = CountsChoices(m.n_choices)
+    m.learn(512, callback=counted, progress_bar=True)
+    last = capsys.readouterr().err.replace("\r", "\n").strip().splitlines()[-1]
+    shares = counted.counts / counted.counts.sum()
+    names = ["left", "pushes", "agent"]
+    expected = " ".join(f"{n} {f:.0%}" for n, f in zip(names, shares, strict=True))
+    assert last.endswith(f"| all 512 steps: {expected}]"), last

@@ -252,20 +252,28 @@ def log_metrics(
 
 
 def progress_text(
-    episodes: EpisodeRecorder | None, usage: np.ndarray, teacher_names: list[str]
+    episodes: EpisodeRecorder | None,
+    usage: np.ndarray,
+    teacher_names: list[str],
+    span: str = "recent:",
 ) -> str:
     """The progress bar's text: the training return (teachers included; the student alone is
-    what evaluations print) and the share of each teacher and the agent in recent choices.
+    what evaluations print) and the share of each teacher and the agent in the high level's
+    choices ``usage`` (counts), made over ``span``: the recent ones while ``learn`` runs, all
+    of the call's at its end.
 
     >>> progress_text(None, np.array([3.0, 1.0]), ["optimal"])
-    'training return nan | optimal 75% agent 25%'
+    'training return nan | recent: optimal 75% agent 25%'
+    >>> progress_text(None, np.array([26.0, 74.0]), ["optimal"], "all 100 steps:")
+    'training return nan | all 100 steps: optimal 26% agent 74%'
     """
     ret = episodes.mean_recent_return() if episodes is not None else float("nan")
     parts = [f"training return {ret:.3g}"]
     if teacher_names and usage.sum() > 0:
         frac = usage / usage.sum()
         names = [*teacher_names, "agent"]
-        parts.append(" ".join(f"{n} {f:.0%}" for n, f in zip(names, frac, strict=True)))
+        shares = " ".join(f"{n} {f:.0%}" for n, f in zip(names, frac, strict=True))
+        parts.append(f"{span} {shares}")
     return " | ".join(parts)
 
 

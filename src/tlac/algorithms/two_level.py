@@ -724,6 +724,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         episodes = find_episode_recorder(self.env)
         bar = make_progress_bar(total_timesteps, "TL-AC", progress_bar)
         usage = np.zeros(self.n_choices)  # the high level's choices since the bar's last text
+        call_usage = np.zeros(self.n_choices)  # ... and in this call, for the bar's final text
         # the window since the last log, kept on the model (and in its checkpoints): a
         # continued or resumed run logs the same means as an uninterrupted one
         if self._log_window is None or start_steps == 0:
@@ -751,6 +752,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 break
             counts = np.bincount(ro.choices.reshape(-1), minlength=self.n_choices)
             usage += counts
+            call_usage += counts
             logged_usage += counts
             progress_remaining = 1.0 - (self.num_timesteps - origin) / horizon
             window.add(self.update(ro, max(progress_remaining, 0.0)))
@@ -779,8 +781,10 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             if not callbacks.after_update():
                 break
         callbacks.end()
-        if bar is not None:
-            bar.set_postfix_str(progress_text(episodes, usage, self.teacher_names), refresh=False)
+        if bar is not None:  # the whole call's shares, as the bar's final text says
+            span = f"all {self.num_timesteps - start_steps} steps:"
+            text = progress_text(episodes, call_usage, self.teacher_names, span)
+            bar.set_postfix_str(text, refresh=False)
             bar.close()
         return self
 
