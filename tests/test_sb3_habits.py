@@ -371,3 +371,31 @@ def test_the_progress_bars_last_shares_are_the_whole_calls(capsys) -> None:
     names = ["left", "pushes", "agent"]
     expected = " ".join(f"{n} {f:.0%}" for n, f in zip(names, shares, strict=True))
     assert last.endswith(f"| all 512 steps: {expected}]"), last
+
+
+def test_an_sb3_teacher_under_its_own_vec_normalize_gets_normalised_observations() -> None:
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from tlac.teachers.sb3 import from_sb3
+
+    torch.set_num_threads(1)
+    own = VecNormalize(cartpole(1), norm_reward=False)
+    own.reset()
+    for _ in range(200):  # statistics far from (0, 1)
+        own.step(np.array([own.action_space.sample()]))
+    agent = PPO("MlpPolicy", own, seed=0, device="cpu")
+    assert agent.get_vec_normalize_env() is own
+    raw = np.random.default_rng(0).normal(scale=2.0, size=(64, 4)).astype(np.float32)
+    meant = agent.predict(own.normalize_obs(raw).astype(np.float32), deterministic=True)[0]
+    assert not np.array_equal(meant, agent.predict(raw, deterministic=True)[0])
+    for teacher in (
+        TLAC(cartpole(), teachers=agent, seed=0, **SMALL).teachers[0],
+        from_sb3(agent, name="ppo"),
+    ):
+        before = own.obs_rms.mean.copy()
+        own.step(np.array([0]))  # its statistics move on; the teacher's were taken when made
+        assert not np.array_equal(own.obs_rms.mean, before)
+        assert np.array_equal(teacher.predict(raw), meant)
+    plain = PPO("MlpPolicy", "CartPole-v1", seed=0, device="cpu")  # no VecNormalize: raw
+    assert TLAC(cartpole(), teachers=plain, seed=0, **SMALL).teachers[0].normalize_obs is None

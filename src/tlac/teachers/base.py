@@ -5,7 +5,8 @@ are fixed). Three kinds of objects are accepted by :func:`as_teacher`:
 
 * an object with a batched ``predict(obs_batch) -> action_batch`` (a :class:`Teacher`);
 * a stable-baselines3 model, or its policy (``model.policy``, a ``BasePolicy`` as imitation's
-  BC trainer gives), whose ``predict`` returns ``(actions, state)``;
+  BC trainer gives), whose ``predict`` returns ``(actions, state)``; a model that trains
+  under a ``VecNormalize`` of its own is asked on observations normalised by its statistics;
 * a plain function from ONE observation to ONE action (a person's controller).
 
 >>> import numpy as np, gymnasium as gym
@@ -101,8 +102,11 @@ def _is_sb3_model(obj: Any) -> bool:
 
 def as_teacher(obj: Any, action_space: gym.Space, name: str | None = None) -> Teacher:
     """Turn ``obj`` into a :class:`Teacher` (see the module docstring for what is accepted)."""
-    if _is_sb3_model(obj):
-        return SB3Teacher(obj, name or type(obj).__name__.lower())
+    if _is_sb3_model(obj):  # with the statistics of its own VecNormalize, if it has one
+        from tlac.teachers.sb3 import own_obs_normalization
+
+        label = name or type(obj).__name__.lower()
+        return SB3Teacher(obj, label, normalize_obs=own_obs_normalization(obj, label))
     if hasattr(obj, "predict") and callable(obj.predict):
         if name is not None and getattr(obj, "name", None) != name:
             return NamedTeacher(obj, name)

@@ -12,6 +12,10 @@ Loading an SB3 ``.zip`` or a ``vecnormalize.pkl`` unpickles Python objects, whic
 load only files you trust. These functions open such a file only when told so
 (``trust_pickle=True``; on the command line ``--trust-pickle``), and nothing in tlac opens one
 on its own (:func:`check_trust_pickle`).
+
+An SB3 model given as a teacher that trains under a ``VecNormalize`` of its own
+(``model.get_vec_normalize_env()``) carries its statistics already: its teacher normalises
+with them (:func:`own_obs_normalization`).
 """
 
 from __future__ import annotations
@@ -50,6 +54,15 @@ class FrozenObsNormalization:
         if not self.normalize:
             return obs
         return np.clip((obs - self.mean) / self.std, -self.clip, self.clip).astype(np.float32)
+
+
+def own_obs_normalization(model: Any, name: str) -> FrozenObsNormalization | None:
+    """The observation normalisation of the ``VecNormalize`` that the SB3 model ``model``
+    trains under (``model.get_vec_normalize_env()``: a model made or loaded with one), frozen
+    as it is now; None without one (a policy, or a model loaded without its environment)."""
+    get = getattr(model, "get_vec_normalize_env", None)
+    vec_normalize = get() if callable(get) else None
+    return None if vec_normalize is None else FrozenObsNormalization(vec_normalize, name)
 
 
 def check_trust_pickle(
@@ -110,7 +123,8 @@ def from_sb3(
 ) -> Any:
     """A teacher from an SB3 agent: ``model`` is a loaded SB3 model or the path of its
     ``.zip`` (loaded as ``algo``); ``vec_normalize`` is its ``VecNormalize`` (an object, or the
-    path of its saved statistics), or None for an agent trained on raw observations. Opening
+    path of its saved statistics), or None: the model's own where it has one
+    (``model.get_vec_normalize_env()``), else raw observations. Opening
     a file unpickles it: pass ``trust_pickle=True`` for files you trust (else ConfigError).
 
     >>> import gymnasium as gym
@@ -129,7 +143,7 @@ def from_sb3(
         model = sb3_class(algo).load(str(path), device="cpu")
     label = name or type(model).__name__.lower()
     if vec_normalize is None:
-        return SB3Teacher(model, label, deterministic)
+        return SB3Teacher(model, label, deterministic, own_obs_normalization(model, label))
     if isinstance(vec_normalize, str | Path):
         vec_normalize = load_vec_normalize(vec_normalize, trust_pickle)
     return SB3Teacher(model, label, deterministic, FrozenObsNormalization(vec_normalize, label))
