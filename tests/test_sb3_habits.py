@@ -399,3 +399,35 @@ def test_an_sb3_teacher_under_its_own_vec_normalize_gets_normalised_observations
         assert np.array_equal(teacher.predict(raw), meant)
     plain = PPO("MlpPolicy", "CartPole-v1", seed=0, device="cpu")  # no VecNormalize: raw
     assert TLAC(cartpole(), teachers=plain, seed=0, **SMALL).teachers[0].normalize_obs is None
+
+
+def test_a_model_trained_under_vec_normalize_loaded_without_it_normalises_raw_obs(
+    tmp_path,
+) -> None:
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    torch.set_num_threads(1)
+    venv = VecNormalize(cartpole(2), clip_obs=5.0)
+    trained = TLAC(venv, teachers=[Pushes()], seed=0, **SMALL).learn(2048)
+    raw = np.random.default_rng(0).normal(scale=[1.0, 2.0, 0.2, 2.0], size=(256, 4))
+    raw = raw.astype(np.float32)
+    meant = greedy(trained, venv.normalize_obs(raw))  # what it acts on in training
+    assert not np.array_equal(meant, greedy(trained, raw))
+    path = trained.save(tmp_path / "model")
+    for loaded in (TLAC.load(path), TLAC.load(path, env=gym.make("CartPole-v1"))):
+        assert np.array_equal(greedy(loaded, raw), meant)  # raw observations, normalised
+        assert np.array_equal(greedy(loaded, raw[0]), meant[0])
+    loaded.saved_vec_normalize = None  # observations normalised by the caller
+    assert np.array_equal(greedy(loaded, venv.normalize_obs(raw)), meant)
+    again = TLAC.load(TLAC.load(path).save(tmp_path / "again"))  # the statistics stay
+    assert np.array_equal(greedy(again, raw), meant)
+    fresh = VecNormalize(cartpole(2), training=False)  # SB3's way: they are put in it
+    in_env = TLAC.load(path, env=fresh)
+    assert in_env.saved_vec_normalize is None and fresh.clip_obs == 5.0
+    assert np.array_equal(fresh.obs_rms.mean, venv.obs_rms.mean)
+    assert np.array_equal(greedy(in_env, fresh.normalize_obs(raw)), meant)
+    older = torch.load(path, weights_only=True)  # a file saved before the settings were kept
+    older["vec_normalize"] = {k: older["vec_normalize"][k] for k in ("obs_rms", "ret_rms")}
+    torch.save(older, tmp_path / "older.pt")
+    with pytest.warns(UserWarning, match=r"older.pt': the model was trained under a VecNormal"):
+        assert TLAC.load(tmp_path / "older.pt").saved_vec_normalize is None

@@ -41,18 +41,26 @@ def set_rms_state(rms: RunningMeanStd, state: dict[str, Any]) -> None:
 
 
 def vec_normalize_state(vec_normalize: Any) -> dict[str, Any]:
-    """A user's SB3 ``VecNormalize`` statistics as tensors and numbers (what
-    ``TLAC.save`` stores beside the networks; no pickle)."""
+    """A user's SB3 ``VecNormalize`` statistics as tensors and numbers, with the settings that
+    its ``normalize_obs`` reads (what ``TLAC.save`` stores beside the networks; no pickle)."""
     return {
         "obs_rms": rms_state(vec_normalize.obs_rms),
         "ret_rms": rms_state(vec_normalize.ret_rms),
+        "norm_obs": bool(vec_normalize.norm_obs),
+        "clip_obs": float(vec_normalize.clip_obs),
+        "epsilon": float(vec_normalize.epsilon),
     }
 
 
 def set_vec_normalize_state(vec_normalize: Any, state: dict[str, Any]) -> None:
-    """Put saved statistics (:func:`vec_normalize_state`) into a ``VecNormalize``."""
+    """Put saved statistics (:func:`vec_normalize_state`) into a ``VecNormalize``, and the
+    settings its observations were normalised with where the file holds them (as SB3's
+    ``VecNormalize.load`` restores them)."""
     set_rms_state(vec_normalize.obs_rms, state["obs_rms"])
     set_rms_state(vec_normalize.ret_rms, state["ret_rms"])
+    for name in ("norm_obs", "clip_obs", "epsilon"):
+        if name in state:
+            setattr(vec_normalize, name, state[name])
 
 
 def add_to_running_stats(rms: RunningMeanStd, batch: np.ndarray) -> None:

@@ -53,6 +53,7 @@ if TYPE_CHECKING:
     from tlac.algorithms.tlac_config import TLACConfig
     from tlac.selectors import Selector
     from tlac.teachers.base import Teacher
+    from tlac.teachers.sb3 import FrozenObsNormalization
 
 
 def _check_memory(
@@ -101,6 +102,7 @@ class TLACHeads:
     train_high: bool
     selector: Selector
     deployed: StudentSnapshot | None
+    saved_vec_normalize: FrozenObsNormalization | None  # TLAC.load's, without a VecNormalize
     _sde_noise: np.ndarray | None
     obs_policy: ObsPolicy = ObsPolicy()  # TLAC(policy=...); a model file's own when loaded
 
@@ -253,6 +255,14 @@ class TLACHeads:
         if self.obs_layout is None:
             return rows.reshape(-1, *self.observation_space.shape)
         return self.obs_layout.unflatten(rows)
+
+    def _vec_normalized(self, obs: Any) -> Any:
+        """``predict``'s observations as the networks were trained on them: normalised by the
+        statistics of the ``VecNormalize`` that the model was trained under, when it was loaded
+        without one (TLAC.load sets ``saved_vec_normalize``); else as they are."""
+        if self.saved_vec_normalize is None or self.get_vec_normalize_env() is not None:
+            return obs
+        return self.saved_vec_normalize(obs)
 
     def _check_obs(self, obs: Any) -> tuple[Any, bool]:
         """``predict``'s observations as a raw batch, and whether it was one observation."""
@@ -451,7 +461,7 @@ class TLACHeads:
         which tlac's evaluations and targets use); one observation gives one action, a batch
         ``(n, *obs_shape)`` gives ``n`` actions."""
         obs, single = self._check_obs(observation)
-        low_out, latent, log_std = self._student_heads(obs)
+        low_out, latent, log_std = self._student_heads(self._vec_normalized(obs))
         if deterministic:
             actions = self._greedy_low(low_out)
         elif self.discrete:
@@ -470,7 +480,7 @@ class TLACHeads:
         if not self.teachers:
             return self.predict(obs, deterministic=deterministic)[0]
         obs = self._check_obs(obs)[0]
-        high_logits, low_out, _, latent = self._act_heads(obs)
+        high_logits, low_out, _, latent = self._act_heads(self._vec_normalized(obs))
         choices = self.selector.evaluation_choices(high_logits, deterministic)
         if deterministic:
             actions = low_out.argmax(-1) if self.discrete else low_out.copy()

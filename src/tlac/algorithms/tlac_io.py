@@ -46,6 +46,7 @@ from tlac.domains import domain_names, get_domain, make_teachers, make_vec_env
 from tlac.errors import ConfigError, TlacError
 from tlac.recording import EpisodeRecorder, MetricWindow, find_episode_recorder
 from tlac.teachers.base import Teacher, as_teacher, teacher_label, unique_names
+from tlac.teachers.sb3 import FrozenObsNormalization
 from tlac.validation import check_setting_types
 
 PARAMETERS = ("net", "extractor", "log_std", "optimizer", "normalizer", "deployed")
@@ -299,6 +300,7 @@ class TLACPersistence:
         ``env`` is then optional and must match those spaces, and ``teachers``, when given,
         must be as many as at save time."""
         self.config, self.seed, self.recorder = config, seed, recorder
+        self.saved_vec_normalize: FrozenObsNormalization | None = None  # TLAC.load sets it
         self.num_timesteps = 0 if saved is None else int(saved["num_timesteps"])
         self._last_obs: np.ndarray | None = None
         self.env, domain, self.n_envs = None, None, 1
@@ -390,6 +392,8 @@ class TLACPersistence:
         vec_normalize = self.get_vec_normalize_env()
         if vec_normalize is not None:  # the user's VecNormalize: its statistics, as tensors
             state["vec_normalize"] = vec_normalize_state(vec_normalize)
+        elif self.saved_vec_normalize is not None:  # loaded without one: those it was saved with
+            state["vec_normalize"] = self.saved_vec_normalize.saved
         if training_state:
             state["training"] = self._training_state()
         if run_state is not None:
@@ -603,6 +607,13 @@ class TLACPersistence:
         is ``learning_rate``). A model saved by SB3 (its .zip) is refused in one line: it is
         loaded with its SB3 class, and TL-AC takes it as a teacher.
 
+        A model trained under a ``VecNormalize`` holds its statistics: loaded with
+        ``env=VecNormalize(...)`` they are put in it (as SB3's ``VecNormalize.load`` would),
+        and ``predict`` takes the observations it gives; loaded without one (no env, or a raw
+        one), ``predict`` takes RAW observations and normalises them with those statistics,
+        frozen (``model.saved_vec_normalize``; set it to None to pass observations you
+        normalise yourself).
+
         ``resume``: restore the training state of a file saved with ``training_state=True``
         (needs ``env`` and the same ``teachers``), so that ``learn`` continues exactly where
         the saved model stopped; the next ``learn`` call keeps the schedules (learning rate,
@@ -647,9 +658,18 @@ class TLACPersistence:
         model.obs_policy = ObsPolicy.from_data(state.get("policy"))
         model._setup(config, state["seed"], env, teachers, None, state)
         model._load_parameters(file_parameters(state), str(path))
-        vec_normalize = model.get_vec_normalize_env()
-        if vec_normalize is not None and state.get("vec_normalize") is not None:
-            set_vec_normalize_state(vec_normalize, state["vec_normalize"])  # as at save time
+        vec_normalize, saved = model.get_vec_normalize_env(), state.get("vec_normalize")
+        if vec_normalize is not None and saved is not None:
+            set_vec_normalize_state(vec_normalize, saved)  # as at save time
+        elif saved is not None and "norm_obs" in saved:  # predict normalises raw observations
+            model.saved_vec_normalize = FrozenObsNormalization.from_saved(saved)
+        elif saved is not None:
+            warnings.warn(
+                f"{str(path)!r}: the model was trained under a VecNormalize whose settings this "
+                "file (from an older tlac) lacks: predict expects observations normalised by "
+                "its statistics; load it with env=VecNormalize(...) to have them",
+                stacklevel=3,
+            )
         if resume:
             if "training" not in state:
                 raise ConfigError(

@@ -48,6 +48,20 @@ class FrozenObsNormalization:
         self.mean = np.array(rms.mean, dtype=np.float64)
         self.std = np.sqrt(np.array(rms.var, dtype=np.float64) + vec_normalize.epsilon)
         self.clip = float(vec_normalize.clip_obs)
+        self.saved: dict[str, Any] | None = None
+
+    @classmethod
+    def from_saved(cls, state: dict[str, Any]) -> FrozenObsNormalization:
+        """The normalisation of the ``VecNormalize`` whose statistics and settings a TL-AC model
+        file holds (tlac.algorithms.normalization.vec_normalize_state), kept as ``saved``."""
+        norm = cls.__new__(cls)
+        rms = state["obs_rms"]
+        norm.normalize = bool(state["norm_obs"])
+        norm.mean = np.asarray(rms["mean"], dtype=np.float64)
+        norm.std = np.sqrt(np.asarray(rms["var"], dtype=np.float64) + float(state["epsilon"]))
+        norm.clip = float(state["clip_obs"])
+        norm.saved = state
+        return norm
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         obs = np.asarray(obs, dtype=np.float32)
