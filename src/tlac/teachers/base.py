@@ -57,28 +57,6 @@ class FunctionTeacher:
         return np.asarray(actions)
 
 
-class SB3Teacher:
-    """A stable-baselines3 model used as a teacher (deterministic actions by default).
-    ``normalize_obs``: what the model's ``VecNormalize`` did to its observations, applied to
-    the raw ones before asking it (:func:`tlac.teachers.sb3.from_sb3`), or None."""
-
-    def __init__(
-        self,
-        model: Any,
-        name: str,
-        deterministic: bool = True,
-        normalize_obs: Callable[[np.ndarray], np.ndarray] | None = None,
-    ):
-        self.model, self.name, self.deterministic = model, name, deterministic
-        self.normalize_obs = normalize_obs
-
-    def predict(self, obs: np.ndarray) -> np.ndarray:
-        if self.normalize_obs is not None:
-            obs = self.normalize_obs(obs)
-        actions, _ = self.model.predict(obs, deterministic=self.deterministic)
-        return np.asarray(actions)
-
-
 class NamedTeacher:
     """Gives an existing batched teacher a (new) name without changing its behaviour."""
 
@@ -103,7 +81,7 @@ def _is_sb3_model(obj: Any) -> bool:
 def as_teacher(obj: Any, action_space: gym.Space, name: str | None = None) -> Teacher:
     """Turn ``obj`` into a :class:`Teacher` (see the module docstring for what is accepted)."""
     if _is_sb3_model(obj):  # with the statistics of its own VecNormalize, if it has one
-        from tlac.teachers.sb3 import own_obs_normalization
+        from tlac.teachers.sb3 import SB3Teacher, own_obs_normalization
 
         label = name or type(obj).__name__.lower()
         return SB3Teacher(obj, label, normalize_obs=own_obs_normalization(obj, label))

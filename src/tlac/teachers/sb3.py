@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import pickle
 import re
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -68,6 +69,28 @@ class FrozenObsNormalization:
         if not self.normalize:
             return obs
         return np.clip((obs - self.mean) / self.std, -self.clip, self.clip).astype(np.float32)
+
+
+class SB3Teacher:
+    """A stable-baselines3 model used as a teacher (deterministic actions by default).
+    ``normalize_obs``: what the model's ``VecNormalize`` did to its observations, applied to
+    the raw ones before asking it (:func:`from_sb3`), or None."""
+
+    def __init__(
+        self,
+        model: Any,
+        name: str,
+        deterministic: bool = True,
+        normalize_obs: Callable[[np.ndarray], np.ndarray] | None = None,
+    ):
+        self.model, self.name, self.deterministic = model, name, deterministic
+        self.normalize_obs = normalize_obs
+
+    def predict(self, obs: np.ndarray) -> np.ndarray:
+        if self.normalize_obs is not None:
+            obs = self.normalize_obs(obs)
+        actions, _ = self.model.predict(obs, deterministic=self.deterministic)
+        return np.asarray(actions)
 
 
 def own_obs_normalization(model: Any, name: str) -> FrozenObsNormalization | None:
@@ -147,8 +170,6 @@ def from_sb3(
     >>> teacher.predict(np.zeros((3, 4), np.float32)).shape
     (3,)
     """
-    from tlac.teachers.base import SB3Teacher
-
     if isinstance(model, str | Path):
         path = Path(model)
         if not path.is_file():
