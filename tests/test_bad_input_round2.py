@@ -70,6 +70,29 @@ def test_a_domain_file_that_raises_names_the_file_line_and_exception(tmp_path, c
     assert f"raised RuntimeError in {domain}, line 2: no simulator here" in line
 
 
+@pytest.mark.parametrize(("made_env", "shown"), [("42", "int 42"), ("'CartPole-v1'", "str")])
+def test_a_domain_whose_make_env_makes_no_environment_is_one_line(
+    made_env, shown, tmp_path, capsys
+):
+    domain = tmp_path / "not_an_env.py"
+    domain.write_text(
+        textwrap.dedent(f"""
+        from tlac.domains import Domain
+        from tlac.teachers.base import as_teacher
+
+        DOMAIN = Domain(
+            name="not-an-env", description="make_env makes no environment",
+            make_env=lambda: {made_env}, teacher_names=("left",),
+            make_teacher=lambda name, env, seed: as_teacher(lambda o: 0, env.action_space),
+            default_teachers=("left",),
+        )
+        """)
+    )
+    line = one_line_error([*T, "--env", f"{domain}:DOMAIN", "--out", str(tmp_path / "o")], capsys)
+    assert f"domain 'not-an-env': its make_env returned {shown}" in line
+    assert "expected a gymnasium.Env, e.g. gym.make('CartPole-v1')" in line
+
+
 @pytest.mark.parametrize(
     ("args", "fragment"),
     [
@@ -177,7 +200,44 @@ def test_resume_names_a_bad_value_in_config_yaml(key, value, fragment, made, tmp
     assert f"{run / 'config.yaml'}': {fragment}" in line
 
 
+@pytest.mark.parametrize("env", ["pickplace", "CartPole-v1"])
+def test_resume_on_another_environment_than_the_checkpoints_is_one_line(
+    env, made, tmp_path, capsys
+):
+    run = tmp_path / "run"
+    shutil.copytree(made["run"], run)
+    (run / "result.json").unlink()
+    checkpoint = {"run": {"num_timesteps": 0}, "training": {}, "env_name": "doorkey"}
+    torch.save(checkpoint, run / "checkpoint.pt")
+    config = yaml.safe_load((run / "config.yaml").read_text())
+    (run / "config.yaml").write_text(yaml.safe_dump({**config, "env": env}))
+    line = one_line_error(["train", "--resume", str(run), "--no-progress"], capsys)
+    assert (
+        f"{run / 'config.yaml'}': env is {env!r}, and the run's checkpoint was trained on "
+        "'doorkey'; --resume continues a run on its own environment: put env: doorkey back"
+    ) in line
+
+
 # --------------------------------------------------------------------------- tlac eval
+@pytest.mark.parametrize(
+    ("key", "value", "fragment"),
+    [
+        ("algo", ["tlac", "ppo"], "algo must be a name, got ['tlac', 'ppo']"),
+        ("env", {"name": "doorkey"}, "env must be a name, got {'name': 'doorkey'}"),
+        ("seed", "zero", "seed must be an integer from 0 to 2147483647, got 'zero'"),
+        ("seed", 1.5, "seed must be an integer from 0 to 2147483647, got 1.5"),
+    ],
+)
+def test_eval_names_a_bad_value_in_config_yaml(key, value, fragment, made, tmp_path, capsys):
+    run = tmp_path / "run"
+    shutil.copytree(made["run"], run)
+    config = yaml.safe_load((run / "config.yaml").read_text())
+    (run / "config.yaml").write_text(yaml.safe_dump({**config, key: value}))
+    for args in (["--episodes", "1"], ["--episodes", "1", "--with-teachers"]):
+        line = one_line_error(["eval", str(run), *args], capsys)
+        assert f"{run / 'config.yaml'}': {fragment}" in line
+
+
 def _damage_weights(state: dict, how: str) -> None:
     weight = next(k for k in state["net"] if k.startswith("weights"))
     if how == "missing key":
@@ -268,6 +328,18 @@ def test_teacher_train_time_limit_must_be_finite(value, capsys):
         ["teacher", "train", "hopper-bullet", "--steps", "10", "--time-limit", value], capsys
     )
     assert "--time-limit must be a finite number of seconds > 0" in line
+
+
+@pytest.mark.parametrize("out", ["file/teachers", "file"])
+def test_teacher_train_out_where_no_folder_can_be_is_one_line(out, tmp_path, capsys):
+    (tmp_path / "file").write_text("a file, not a folder")
+    args = ["teacher", "train", "doorkey", "--steps", "10", "--work-dir", str(tmp_path / "w")]
+    line = one_line_error([*args, "--out", str(tmp_path / out)], capsys)
+    assert (
+        f"--out {str(tmp_path / out)!r} cannot be a folder: {str(tmp_path / 'file')!r} is a "
+        "file; expected a folder path"
+    ) in line
+    assert not (tmp_path / "w").exists()  # refused before anything is written
 
 
 # --------------------------------------------------------------------------- experiments
@@ -385,6 +457,39 @@ def test_a_teacher_returning_garbage_is_one_error(action, fragment):
     with pytest.raises(TeacherError) as info:
         model.learn(16, progress_bar=False)
     assert fragment in str(info.value)
+
+
+class _Batched:
+    """A batched teacher returning ``make(n)`` for a batch of ``n`` observations."""
+
+    def __init__(self, make):
+        self.make, self.name = make, "batched"
+
+    def predict(self, obs):
+        return self.make(len(obs))
+
+
+@pytest.mark.parametrize("env_id", ["CartPole-v1", "Pendulum-v1"])
+@pytest.mark.parametrize(
+    ("make", "fragment"),
+    [
+        (lambda n: np.array(["left"] * n), "returned actions of dtype <U4 ('left')"),
+        (lambda n: ["a"] * n, "returned actions of dtype <U1 ('a')"),
+        (lambda n: np.ones(n, complex), "returned actions of dtype complex128 ((1+0j))"),
+        (lambda n: np.array([object()] * n), "returned actions of dtype object (<object"),
+    ],
+)
+def test_a_batched_teacher_returning_no_numbers_is_one_error(env_id, make, fragment):
+    from tlac import TLAC
+
+    env = gym.make(env_id)
+    box = isinstance(env.action_space, gym.spaces.Box)
+    shaped = (lambda n: np.asarray(make(n)).reshape(n, 1)) if box else make
+    model = TLAC(env, teachers=[_Batched(shaped)], seed=0, n_steps=16, batch_size=16)
+    with pytest.raises(TeacherError) as info:
+        model.learn(16, progress_bar=False)
+    assert f"teacher 'batched' {fragment}" in str(info.value)
+    assert f"expected numbers, actions of {env.action_space}" in str(info.value)
 
 
 @pytest.mark.parametrize("path", ["", 3, None, "   "])

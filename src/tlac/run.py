@@ -296,11 +296,33 @@ def _same_settings(out: Path, spec: RunSpec, domain: Domain) -> bool:
 def _checkpoint_run_state(out: Path) -> dict[str, Any] | None:
     """What the run's writers need to continue from ``out/checkpoint.pt`` (saved in the same
     file as the model and its training state); None without such a checkpoint."""
+    return _read_checkpoint(out)[0]
+
+
+def _read_checkpoint(out: Path) -> tuple[dict[str, Any] | None, str | None]:
+    """:func:`_checkpoint_run_state`, and the environment the checkpoint's model was trained
+    on (a domain's name, as TL-AC records it; None where unknown)."""
     if not (out / CHECKPOINT).exists():
-        return None
+        return None, None
     state = safe_torch_load(out / CHECKPOINT, "checkpoint")
-    run_state = state.get("run") if isinstance(state, dict) else None
-    return run_state if isinstance(run_state, dict) and "training" in state else None
+    if not isinstance(state, dict):
+        return None, None
+    run_state, trained_on = state.get("run"), state.get("env_name")
+    return (
+        run_state if isinstance(run_state, dict) and "training" in state else None,
+        trained_on if isinstance(trained_on, str) else None,
+    )
+
+
+def _names_domain(env: Any, name: str) -> bool:
+    """Whether the ``env`` of a config.yaml is the domain ``name`` (by that name, or a
+    ``module:attribute`` / ``file.py:attribute`` whose Domain is named so)."""
+    if env == name:
+        return True
+    try:
+        return isinstance(env, str) and ":" in env and get_domain(env).name == name
+    except ConfigError:
+        return False
 
 
 def _resumable(out: Path, spec: RunSpec, domain: Domain) -> dict[str, Any] | None:
@@ -373,11 +395,17 @@ def resume_run(
     config = load_run_config(out)
     if (out / RESULT_FILE).exists():
         raise ConfigError(f"{str(out)!r} is a finished run; nothing to resume")
-    meta = _checkpoint_run_state(out)
+    meta, trained_on = _read_checkpoint(out)
     if meta is None:
         raise ConfigError(
             f"{str(out)!r} has no checkpoint to resume from (TL-AC, DQN-TLQL and AC-Teach runs write one every "
             "--checkpoint-every steps)"
+        )
+    if trained_on is not None and not _names_domain(config["env"], trained_on):
+        raise ConfigError(
+            f"{str(out / 'config.yaml')!r}: env is {config['env']!r}, and the run's checkpoint "
+            f"was trained on {trained_on!r}; --resume continues a run on its own environment: "
+            f"put env: {trained_on} back, or start a new run (tlac train --env ...)"
         )
     fields = {f.name for f in dataclasses.fields(RunSpec)}
     spec = RunSpec(**{k: v for k, v in config.items() if k in fields})
@@ -698,4 +726,11 @@ def load_run_config(run_dir: str | Path) -> dict[str, Any]:
     data = read_yaml_file(cfg, "run config")
     if not isinstance(data, dict) or not {"env", "algo"} <= set(data):
         raise ConfigError(f"{str(cfg)!r} is not a run's config.yaml (no env / algo)")
+    try:  # what every command reads of it (tlac train --resume checks the rest)
+        for key in ("env", "algo"):
+            if not isinstance(data[key], str):
+                raise ConfigError(f"{key} must be a name, got {data[key]!r}")
+        check_seed(data.get("seed", 0))
+    except ConfigError as exc:  # config.yaml edited by hand: say which file
+        raise ConfigError(f"{str(cfg)!r}: {exc}") from None
     return data

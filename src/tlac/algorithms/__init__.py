@@ -34,7 +34,7 @@ def algorithm_names() -> list[str]:
 
 def get_algorithm(name: str) -> Any:
     """The algorithm class registered under ``name``."""
-    if name not in ALGORITHMS:
+    if not isinstance(name, str) or name not in ALGORITHMS:  # a list is no name (unhashable)
         raise UnknownNameError("algorithm", name, algorithm_names())
     module_name, attr = ALGORITHMS[name].split(":")
     return getattr(importlib.import_module(module_name), attr)

@@ -322,8 +322,20 @@ def check_env_spaces(env: Any, observation_space: gym.Space, action_space: gym.S
     ):
         if not spaces_match(saved, given):
             raise ConfigError(
-                f"the environment's {kind} space {given} does not match the model's {saved}"
+                f"the environment's {kind} space {one_line(given)} does not match the model's "
+                f"{one_line(saved)}"
             )
+
+
+def one_line(value: Any, width: int = 100) -> str:
+    """``str(value)`` on one line, at most ``width`` characters (a Box's bounds print as
+    arrays over several lines).
+
+    >>> one_line(gym.spaces.Box(0, np.arange(40), (40,), np.uint8), 30)
+    'Box(0, [ 0 1 2 3 4 5 6 7 8...'
+    """
+    text = " ".join(str(value).split())
+    return text if len(text) <= width else text[: width - 3].rstrip() + "..."
 
 
 def canonical_data(data: Any) -> Any:

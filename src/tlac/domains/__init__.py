@@ -16,6 +16,7 @@ the registry, the teacher-set builder and the vectorised-environment factory.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import importlib
 import importlib.util
 import inspect
@@ -144,12 +145,33 @@ def register_domain(domain: Domain, replace: bool = False) -> Domain:
     missing = {algo: "default" for algo in DEFAULT_PRESET_ALGOS if algo not in domain.presets}
     if missing:  # presets/default.yaml: measured for TL-AC, the others' own defaults
         domain = dataclasses.replace(domain, presets={**domain.presets, **missing})
+    if not getattr(domain.make_env, "checks_env", False):
+        domain = dataclasses.replace(domain, make_env=_checked_make_env(domain))
     _USER_DOMAINS[domain.name] = domain
     env_id = f"tlac/{domain.name}-v0"
     if env_id in gym.registry:
         del gym.registry[env_id]
     gym.register(id=env_id, entry_point=_gym_factory(domain))
     return domain
+
+
+def _checked_make_env(domain: Domain) -> Callable[..., gym.Env]:
+    """A user's ``make_env`` that checks what it made: anything but a ``gymnasium.Env`` is one
+    ConfigError line naming the domain (not an AttributeError deep in training)."""
+    make_env = domain.make_env
+
+    @functools.wraps(make_env)  # keeps its signature: gym.make's render_mode is looked up
+    def make(*args: object, **kwargs: object) -> gym.Env:
+        env = make_env(*args, **kwargs)
+        if not isinstance(env, gym.Env):
+            raise ConfigError(
+                f"domain {domain.name!r}: its make_env returned {type(env).__name__} "
+                f"{env!r:.50}; expected a gymnasium.Env, e.g. gym.make('CartPole-v1')"
+            )
+        return env
+
+    make.checks_env = True  # type: ignore[attr-defined]
+    return make
 
 
 def _gym_factory(domain: Domain) -> Callable[..., gym.Env]:

@@ -17,6 +17,7 @@ are fixed). Three kinds of objects are accepted by :func:`as_teacher`:
 
 from __future__ import annotations
 
+import numbers
 import sys
 from collections.abc import Callable, Mapping
 from typing import Any, Protocol, runtime_checkable
@@ -183,10 +184,37 @@ def ask_teacher(teacher: Any, obs: np.ndarray, action_space: gym.Space) -> np.nd
     return check_actions(teacher.name, actions, action_space, batch_len(obs))
 
 
+def numeric_actions(teacher_name: str, actions: Any, action_space: gym.Space) -> np.ndarray:
+    """``actions`` as a NumPy array of numbers (an object array of plain numbers becomes
+    floats); text, complex numbers or other objects are a :class:`TeacherError` naming the
+    teacher, where NumPy's own checks would raise a bare TypeError.
+
+    >>> numeric_actions("t", np.array([1, 0], dtype=object), gym.spaces.Discrete(2)).tolist()
+    [1.0, 0.0]
+    >>> numeric_actions("t", np.array(["left"]), gym.spaces.Discrete(2))
+    Traceback (most recent call last):
+    tlac.errors.TeacherError: teacher 't' returned actions of dtype <U4 ('left'); expected numbers, actions of Discrete(2)
+    """
+    try:
+        arr = np.asarray(actions)
+    except ValueError:  # ragged nested lists
+        arr = np.asarray(actions, dtype=object)
+    if arr.dtype == object and all(isinstance(a, numbers.Real) for a in arr.flat):
+        arr = arr.astype(np.float64)
+    if arr.dtype.kind not in "biuf":
+        first = arr.flat[0] if arr.size else "empty"
+        first = repr(first.item() if isinstance(first, np.generic) else first)[:40]
+        raise TeacherError(
+            f"teacher {teacher_name!r} returned actions of dtype {arr.dtype} ({first}); "
+            f"expected numbers, actions of {action_space}"
+        )
+    return arr
+
+
 def check_actions(teacher_name: str, actions: Any, action_space: gym.Space, n: int) -> np.ndarray:
     """Validate a batch of teacher actions; raise :class:`TeacherError` naming the teacher and
     the offending value. Nothing is clipped silently."""
-    arr = np.asarray(actions)
+    arr = numeric_actions(teacher_name, actions, action_space)
     if isinstance(action_space, gym.spaces.Discrete):
         if arr.shape != (n,):
             raise TeacherError(
@@ -243,7 +271,13 @@ def advice_probabilities(teacher: Any, obs: np.ndarray, action_space: gym.Space)
     n_actions, n = int(action_space.n), batch_len(obs)
     inner = _unwrapped(teacher)
     if hasattr(inner, "action_probabilities"):
-        probs = np.asarray(inner.action_probabilities(obs), dtype=np.float64)
+        probs = np.asarray(inner.action_probabilities(obs))
+        if probs.dtype.kind not in "biuf":
+            raise TeacherError(
+                f"teacher {teacher.name!r}: action_probabilities gave an array of dtype "
+                f"{probs.dtype}; expected numbers, rows of probabilities summing to 1"
+            )
+        probs = probs.astype(np.float64)
         if probs.shape != (n, n_actions) or not np.allclose(probs.sum(1), 1.0):
             raise TeacherError(
                 f"teacher {teacher.name!r}: action_probabilities gave an array of shape "

@@ -109,6 +109,34 @@ def _atomic_write_text(path: Path, text: str) -> None:
     os.replace(tmp, path)
 
 
+def make_folders(out_dir: Path, work: Path) -> None:
+    """Create the folders a teacher's training writes (``--out`` and ``--work-dir``); one that
+    cannot be (a file on its path, no permission) is one ConfigError naming it, said before
+    training starts.
+
+    >>> import tempfile
+    >>> file = Path(tempfile.mkdtemp()) / "f"; _ = file.write_text("")
+    >>> make_folders(file / "teachers", file.parent / "work")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    tlac.errors.ConfigError: --out '.../f/teachers' cannot be a folder: '.../f' is a file; expected a folder path
+    """
+    for option, folder in (("--out", out_dir), ("--work-dir", work)):
+        blocking = next((p for p in (folder, *folder.parents) if p.is_file()), None)
+        if blocking is not None:
+            raise ConfigError(
+                f"{option} {str(folder)!r} cannot be a folder: {str(blocking)!r} is a file; "
+                "expected a folder path"
+            )
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ConfigError(
+                f"{option} {str(folder)!r} cannot be created: {exc.strerror}"
+            ) from None
+        if not os.access(folder, os.W_OK | os.X_OK):
+            raise ConfigError(f"{option} {str(folder)!r} cannot be written: permission denied")
+
+
 def _learn_with_checkpoints(
     model: Any,
     steps: int,
@@ -226,8 +254,7 @@ def train_teacher(
     work = (
         Path(work_dir) if work_dir is not None else Path("runs/teachers") / f"{env_name}-seed{seed}"
     )
-    work.mkdir(parents=True, exist_ok=True)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    make_folders(out_dir, work)
     ckpt, buf, state_path = work / "checkpoint.zip", work / "replay_buffer.pkl", work / "state.json"
     command = (
         command or f"tlac teacher train {env_name} --steps {steps} --seed {seed} --out {out_dir}"
@@ -351,8 +378,7 @@ def train_ppo_teacher(
     work = (
         Path(work_dir) if work_dir is not None else Path("runs/teachers") / f"{env_name}-seed{seed}"
     )
-    work.mkdir(parents=True, exist_ok=True)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    make_folders(out_dir, work)
     ckpt, state_path = work / "checkpoint.zip", work / "state.json"
     command = (
         command or f"tlac teacher train {env_name} --steps {steps} --seed {seed} --out {out_dir}"
