@@ -79,6 +79,10 @@ def test_train_then_eval(tmp_path, capsys):
     ("args", "fragment"),
     [
         (["train", "--env", "atari"], "unknown environment 'atari'"),
+        (
+            ["train", "--env", "CartPole-v1"],
+            "'CartPole-v1' is a Gymnasium id, not a tlac domain (doorkey, ",
+        ),
         (["train", "--teachers", "optimal,wizard"], "unknown teacher for doorkey 'wizard'"),
         (["train", "--teachers", "optimal:1.5"], "probability 1.5 is outside [0, 1]"),
         (["train", "--steps", "0"], "expected a positive integer"),
@@ -143,6 +147,36 @@ def test_eval_of_a_folder_that_is_not_a_run(tmp_path):
 def test_envs_lists_doorkey():
     proc = run_cli("envs")
     assert proc.returncode == 0 and "doorkey" in proc.stdout and "optimal" in proc.stdout
+
+
+def test_envs_and_train_say_how_to_use_a_gymnasium_id(capsys):
+    assert main(["envs"]) == 0
+    out = capsys.readouterr().out
+    assert "Any registered Gymnasium id (CartPole-v1, ...) works from Python: " in out
+    assert "TLAC('CartPole-v1', teachers=[...])" in out
+    assert "tlac train --env path/to/file.py:DOMAIN (examples/my_domain.py)" in out
+    assert main(["train", "--env", "CartPole-v1", "--steps", "64"]) == 2
+    err = capsys.readouterr().err
+    assert "from Python TLAC('CartPole-v1', teachers=[...]) takes it" in err
+    assert "--env path/to/file.py:DOMAIN (examples/my_domain.py is one for CartPole-v1)" in err
+
+
+def test_report_of_one_run_folder(tmp_path, capsys):
+    out = tmp_path / "run"
+    small = ["--set", "n_steps=32", "--set", "batch_size=32", "--log-interval", "32"]
+    evals = ["--eval-every", "64", "--eval-episodes", "1", "--no-progress"]
+    assert main(["train", "--steps", "128", *small, *evals, "--out", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["report", str(out)]) == 0
+    assert f"wrote {out / 'report.md'}" in capsys.readouterr().out
+    report = (out / "report.md").read_text()
+    assert "Domain `doorkey`, 128 environment steps per run, seeds 0" in report
+    assert "| optimal, random, random | `tlac` |" in report  # its teachers and algorithm
+    assert (out / "figures" / "student_alone.png").exists()
+    assert (out / "summary.csv").read_text().count("\n") == 2  # a header and the run
+    assert main(["eval", str(out), "--episodes", "1"]) == 0  # still a run folder
+    assert main(["report", str(tmp_path / "none")]) == 2
+    assert "nor a run folder of tlac train (config.yaml)" in capsys.readouterr().err
 
 
 def test_readme_starts_with_the_two_commands():

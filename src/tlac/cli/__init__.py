@@ -258,6 +258,12 @@ def _cmd_envs(args: argparse.Namespace) -> int:
         print(
             f"{'':14s} teachers: {', '.join(d.teacher_names)}; regions: {', '.join(d.region_names)}"
         )
+    print(
+        "\nAny registered Gymnasium id (CartPole-v1, ...) works from Python: "
+        "TLAC('CartPole-v1', teachers=[...]).\nOn the command line, name a domain file that "
+        "makes it and its teachers: tlac train --env path/to/file.py:DOMAIN "
+        "(examples/my_domain.py)."
+    )
     return 0
 
 
@@ -274,7 +280,12 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
 
     train = sub.add_parser("train", help="train one run and write its run folder")
-    train.add_argument("--env", default="doorkey", help="domain (see `tlac envs`; default doorkey)")
+    train.add_argument(
+        "--env",
+        default="doorkey",
+        help="domain (see `tlac envs`; default doorkey), or a domain file path/to/file.py:DOMAIN "
+        "(a Gymnasium id goes in one: examples/my_domain.py)",
+    )
     train.add_argument(
         "--algo", default="tlac", choices=algorithm_names(), help="algorithm (default tlac)"
     )

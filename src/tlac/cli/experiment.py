@@ -125,11 +125,14 @@ def register(subparsers: Any) -> None:
 
     rep = subparsers.add_parser(
         "report",
-        help="write a Markdown report and PNG figures for an experiment folder",
+        help="write a Markdown report and PNG figures for an experiment folder or a run folder",
         description="Reads DIR/experiment.yaml and DIR/runs/* (or DIR/runs.tar.xz, written by "
-        "'tlac results pack'), writes DIR/report.md, DIR/figures/*.png and DIR/summary.csv.",
+        "'tlac results pack'), or the one run of a run folder of 'tlac train' (its "
+        "config.yaml), writes DIR/report.md, DIR/figures/*.png and DIR/summary.csv.",
     )
-    rep.add_argument("dir", metavar="DIR", help="output folder of 'tlac experiment run'")
+    rep.add_argument(
+        "dir", metavar="DIR", help="output folder of 'tlac experiment run', or of 'tlac train'"
+    )
     rep.add_argument(
         "--paper",
         action="store_true",

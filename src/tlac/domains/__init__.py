@@ -238,6 +238,16 @@ def _import_failure(exc: Exception) -> str:
     return f"importing it raised {type(exc).__name__}{where}" + (f": {detail}" if detail else "")
 
 
+def gym_id_hint(env_id: str) -> str:
+    """What to do with a Gymnasium id where a domain is expected (``tlac train --env``)."""
+    return (
+        f"{env_id!r} is a Gymnasium id, not a tlac domain ({', '.join(domain_names())}): "
+        f"from Python TLAC({env_id!r}, teachers=[...]) takes it; tlac train and experiment "
+        "configs take a domain file that makes it and names its teachers, --env "
+        "path/to/file.py:DOMAIN (examples/my_domain.py is one for CartPole-v1)"
+    )
+
+
 def get_domain(name: str) -> Domain:
     """Look up a domain: a built-in or registered name, or ``"module:attribute"`` /
     ``"path/to/file.py:attribute"`` naming a Domain object; raises :class:`UnknownNameError` listing the
@@ -248,6 +258,8 @@ def get_domain(name: str) -> Domain:
         return _USER_DOMAINS.get(name) or _IMPORTED[name]
     if name not in _DOMAINS and ":" in name:
         return _import_domain(name)
+    if name not in _DOMAINS and name in gym.registry:
+        raise ConfigError(gym_id_hint(name))
     if name not in _DOMAINS:
         raise UnknownNameError("environment", name, domain_names())
     module_name, attr = _DOMAINS[name].split(":")

@@ -32,9 +32,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
+
 from tlac.algorithms import NO_ADVICE, algorithm_names
 from tlac.algorithms.common import MAX_SEED
-from tlac.domains import DOMAIN_NAME, domain_names, get_domain
+from tlac.domains import DOMAIN_NAME, domain_names, get_domain, gym_id_hint
 from tlac.errors import ConfigError, TlacError, read_yaml_file
 from tlac.presets import load_preset, preset_names
 from tlac.run import SELECTORS
@@ -410,6 +412,8 @@ def _domain(f: _Fields, value: Any, folder: Path, import_domain: bool) -> tuple[
     ``import_domain`` is false; returns (the name as the grid uses it, the Domain or
     ``None`` when not imported)."""
     if not (isinstance(value, str) and ":" in value):  # "module:attribute": imported
+        if isinstance(value, str) and value not in domain_names() and value in gym.registry:
+            raise f.problem("domain", gym_id_hint(value))
         value = f.choice("domain", value, "domain", domain_names())
     elif not import_domain:
         parts = domain_file(value)

@@ -27,7 +27,14 @@ from tlac.errors import StorageError
 from tlac.experiments import markdown as md
 from tlac.experiments import tables as T
 from tlac.experiments.markdown import fmt, fmt_mean_std
-from tlac.experiments.rundata import Experiment, RunData, load_experiment, read_experiment
+from tlac.experiments.rundata import (
+    Experiment,
+    RunData,
+    load_experiment,
+    read_experiment,
+    read_run_folder,
+)
+from tlac.experiments.runner import EXPERIMENT_FILE
 from tlac.experiments.tables import algorithm_label, final_window, summarize
 
 if TYPE_CHECKING:
@@ -87,13 +94,15 @@ class _FigureWriter:
 
 def write_report(out_dir: str | Path, paper: bool = False) -> Path:
     """Write ``DIR/report.md``, ``DIR/summary.csv``, ``DIR/jumpstart.csv`` (when the grid has a
-    no-advice baseline) and ``DIR/figures/*.png`` for the experiment in ``out_dir``; with
+    no-advice baseline) and ``DIR/figures/*.png`` for the experiment in ``out_dir``, or for
+    the one run of a run folder that ``tlac train`` wrote (its ``config.yaml``); with
     ``paper``, the paper's values beside ours. Returns the report's path."""
     import matplotlib
 
     matplotlib.use("Agg")
     out = Path(out_dir)
-    exp = read_experiment(out)
+    one_run = not (out / EXPERIMENT_FILE).exists() and (out / "config.yaml").is_file()
+    exp = read_run_folder(out) if one_run else read_experiment(out)
     try:
         return _write_report(out, exp, paper)
     except OSError as exc:  # a read-only folder, a full disk, report.md a folder

@@ -8,16 +8,19 @@ once the study is packed (the same bytes, so the same report).
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
+from tlac.algorithms import NO_ADVICE
 from tlac.errors import ConfigError, read_yaml_file
-from tlac.experiments.archive import RunStore
+from tlac.experiments.archive import RunFiles, RunStore
 from tlac.experiments.config import NO_TEACHERS, ExperimentConfig, parse_config
 from tlac.experiments.grid import ERROR_FILE, GridRun, expand_grid
 from tlac.experiments.runner import (
@@ -26,7 +29,7 @@ from tlac.experiments.runner import (
     read_teachers,
     with_recorded_domain,
 )
-from tlac.run import RESULT_FILE
+from tlac.run import RESULT_FILE, load_run_config
 
 EPISODES_FILE = "episodes.csv"
 EVAL_FILE = "eval.csv"
@@ -160,7 +163,10 @@ def read_experiment(out_dir: str | Path) -> Experiment:
     out = Path(out_dir)
     cfg_path = out / EXPERIMENT_FILE
     if not cfg_path.exists():
-        raise ConfigError(f"{out}: not an experiment folder ({EXPERIMENT_FILE} is missing)")
+        raise ConfigError(
+            f"{out}: not an experiment folder ({EXPERIMENT_FILE} is missing) nor a run folder "
+            "of tlac train (config.yaml)"
+        )
     data = read_yaml_file(cfg_path, "experiment file")
     config = parse_config(data, str(cfg_path), import_domain=False)
     config = with_recorded_domain(config, out)
@@ -168,6 +174,58 @@ def read_experiment(out_dir: str | Path) -> Experiment:
     runs = [read_run(store, r) for r in expand_grid(config)]
     teachers = read_teachers(out / TEACHERS_FILE)
     return Experiment(config, runs, teachers)
+
+
+class _OneRunStore(RunStore):
+    """The :class:`RunStore` of one run folder (``tlac train``'s): whatever its grid name,
+    the run is that folder."""
+
+    def __init__(self, run_dir: Path):
+        super().__init__(run_dir)
+        self.run_dir = run_dir
+
+    def folder(self, name: str) -> Path:
+        return self.run_dir
+
+    def packed(self) -> dict[str, RunFiles]:
+        return {}
+
+
+def read_run_folder(run_dir: str | Path) -> Experiment:
+    """One run folder written by ``tlac train`` (its ``config.yaml``) read as an experiment of
+    that one run: its domain, steps, seed, evaluations, algorithm and teachers (a teacher set
+    named ``teachers``), so that ``tlac report RUN`` reports it as a grid of one."""
+    out = Path(run_dir)
+    run = load_run_config(out)
+    algo, teachers = run["algo"], run.get("teacher_kinds") or run.get("teachers") or []
+    entry: dict[str, Any] = {"name": algo}
+    if algo == "tlac" and run.get("selector", "learned") != "learned":
+        entry["selector"] = run["selector"]
+    every = run.get("eval_every")
+    data = {
+        "name": re.sub(r"[^A-Za-z0-9._-]+", "-", out.resolve().name).strip("-._") or "run",
+        "domain": run["env"],
+        "steps": run.get("steps"),
+        "seeds": [run["seed"]],
+        "eval": {
+            "every": every,
+            "episodes": run.get("eval_episodes", 10),
+            "keep_best": bool(every and run.get("keep_best", False)),
+        },
+        "log_interval": run.get("log_interval", 2000),
+        "teacher_sets": {}
+        if algo in NO_ADVICE or not teachers
+        else {"teachers": {"label": ", ".join(map(str, teachers)), "teachers": list(teachers)}},
+        "algorithms": [entry],
+    }
+    if isinstance(data["steps"], int):  # the first 10,000 steps, or all of a shorter run
+        data["metrics"] = {"jumpstart_window": max(1, min(10_000, data["steps"]))}
+    source = str(out / "config.yaml")
+    config = parse_config(data, source, folder=Path.cwd(), import_domain=False)
+    if config.domain_name is None:  # a domain file not found from here: the run is named anyway
+        config = dataclasses.replace(config, domain_name=data["name"])
+    runs = [read_run(_OneRunStore(out), r) for r in expand_grid(config)]
+    return Experiment(config, runs, {})
 
 
 def load_experiment(out_dir: str | Path) -> tuple[ExperimentConfig, list[RunData], dict[str, Any]]:
