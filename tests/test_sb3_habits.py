@@ -431,3 +431,29 @@ def test_a_model_trained_under_vec_normalize_loaded_without_it_normalises_raw_ob
     torch.save(older, tmp_path / "older.pt")
     with pytest.warns(UserWarning, match=r"older.pt': the model was trained under a VecNormal"):
         assert TLAC.load(tmp_path / "older.pt").saved_vec_normalize is None
+
+
+def test_student_eval_callback_logs_the_student_alone(tmp_path) -> None:
+    import pandas as pd
+    from stable_baselines3.common.logger import configure
+
+    from tlac import StudentEvalCallback
+    from tlac.evaluation import episode_returns
+
+    watched = model()  # 64 steps a rollout
+    watched.set_logger(configure(str(tmp_path), ["csv"]))
+    evals = StudentEvalCallback(gym.make("CartPole-v1"), eval_freq=128, n_eval_episodes=2)
+    watched.learn(384, callback=evals)
+    assert [t for t, _, _ in evals.evaluations] == [128, 256, 384]  # after those updates
+    logged = pd.read_csv(tmp_path / "progress.csv")
+    assert logged["eval/student_alone_mean"].tolist() == [m for _, m, _ in evals.evaluations]
+    assert logged["eval/student_alone_std"].tolist() == [s for _, _, s in evals.evaluations]
+    by_hand = episode_returns(lambda o: greedy(watched, o), [gym.make("CartPole-v1")], 2, 10_000)
+    assert evals.evaluations[-1][1] == by_hand.mean()  # the student alone, seeds 10000, 10001
+    alone = model()
+    alone.learn(384)
+    assert same_weights(alone, watched)  # training unchanged
+    with pytest.raises(ConfigError, match="eval_env must be a gymnasium.Env, a Gymnasium id"):
+        StudentEvalCallback(cartpole(1))
+    with pytest.raises(ConfigError, match="eval_freq must be a positive integer, got 0"):
+        StudentEvalCallback("CartPole-v1", eval_freq=0)

@@ -14,11 +14,19 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
-__all__ = ["TLAC", "Domain", "TLACConfig", "__version__", "register_domain"]
+__all__ = [
+    "TLAC",
+    "Domain",
+    "StudentEvalCallback",
+    "TLACConfig",
+    "__version__",
+    "register_domain",
+]
 
 if TYPE_CHECKING:
     from tlac.algorithms.two_level import TLAC, TLACConfig
     from tlac.domains import Domain, register_domain
+    from tlac.evaluation import StudentEvalCallback
 
 
 def __getattr__(name: str) -> Any:  # lazy: `import tlac` stays cheap for the CLI
@@ -30,6 +38,10 @@ def __getattr__(name: str) -> Any:  # lazy: `import tlac` stays cheap for the CL
         from tlac import envs
 
         return getattr(envs, name)
+    if name == "StudentEvalCallback":
+        from tlac.evaluation import StudentEvalCallback
+
+        return StudentEvalCallback
     raise AttributeError(f"module 'tlac' has no attribute {name!r}")
 
 

@@ -1,12 +1,17 @@
-"""Evaluate the student alone (the low-level policy without any teacher): what a user deploys."""
+"""Evaluate the student alone (the low-level policy without any teacher): what a user deploys.
+From Python, while a model learns: :class:`StudentEvalCallback`."""
 
 from __future__ import annotations
 
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.vec_env import VecEnv
 
-from tlac.domains import Domain
+from tlac.domains import Domain, domain_names, get_domain
+from tlac.errors import ConfigError
 
 
 def evaluate_policy(
@@ -19,36 +24,41 @@ def evaluate_policy(
     """Run ``act(obs_batch) -> actions`` for ``episodes`` full episodes on fresh environments
     seeded ``seed, seed+1, ...`` and return the undiscounted return of each episode."""
     envs = [domain.make_env() for _ in range(max(1, min(n_envs, episodes)))]
-    returns: list[float] = []
-    next_seed = seed
     try:
-        obs, live, acc = [], [], []
-        for env in envs:
-            o, _ = env.reset(seed=next_seed)
-            next_seed += 1
-            obs.append(o)
-            live.append(True)
-            acc.append(0.0)
-        started = len(envs)
-        while any(live):
-            idx = [i for i, alive in enumerate(live) if alive]
-            actions = np.asarray(act(np.stack([obs[i] for i in idx])))
-            for a, i in zip(actions, idx, strict=True):
-                o, r, terminated, truncated, _ = envs[i].step(a)
-                acc[i] += float(r)
-                obs[i] = o
-                if terminated or truncated:
-                    returns.append(acc[i])
-                    acc[i] = 0.0
-                    if started < episodes:
-                        obs[i], _ = envs[i].reset(seed=next_seed)
-                        next_seed += 1
-                        started += 1
-                    else:
-                        live[i] = False
+        return episode_returns(act, envs, episodes, seed)
     finally:
         for env in envs:
             env.close()
+
+
+def episode_returns(act: Any, envs: list[gym.Env], episodes: int, seed: int) -> np.ndarray:
+    """:func:`evaluate_policy` on the environments ``envs``, which it leaves open."""
+    returns: list[float] = []
+    next_seed = seed
+    obs, live, acc = [], [], []
+    for env in envs:
+        o, _ = env.reset(seed=next_seed)
+        next_seed += 1
+        obs.append(o)
+        live.append(True)
+        acc.append(0.0)
+    started = len(envs)
+    while any(live):
+        idx = [i for i, alive in enumerate(live) if alive]
+        actions = np.asarray(act(np.stack([obs[i] for i in idx])))
+        for a, i in zip(actions, idx, strict=True):
+            o, r, terminated, truncated, _ = envs[i].step(a)
+            acc[i] += float(r)
+            obs[i] = o
+            if terminated or truncated:
+                returns.append(acc[i])
+                acc[i] = 0.0
+                if started < episodes:
+                    obs[i], _ = envs[i].reset(seed=next_seed)
+                    next_seed += 1
+                    started += 1
+                else:
+                    live[i] = False
     return np.asarray(returns[:episodes], dtype=np.float64)
 
 
@@ -59,3 +69,104 @@ def evaluate_student(
     return evaluate_policy(
         lambda o: model.predict(o, deterministic=deterministic)[0], domain, episodes, seed
     )
+
+
+class StudentEvalCallback(BaseCallback):
+    """SB3 callback that evaluates the student alone (``model.predict``, no teacher) every
+    ``eval_freq`` environment steps (over all environments, as ``tlac train --eval-every``;
+    SB3's ``EvalCallback`` counts steps per environment) on ``n_eval_episodes`` episodes of
+    ``eval_env`` (a ``gymnasium.Env``, a Gymnasium id or a domain name), and logs
+    ``eval/student_alone_mean`` and ``eval/student_alone_std`` to the model's logger, which
+    writes them where ``verbose``, ``tensorboard_log`` or ``set_logger`` say. The episodes are
+    seeded ``seed, seed + 1, ...`` at every evaluation (default ``10_000 + model.seed``, as
+    ``tlac train``'s); the student is evaluated after the update that reaches each multiple of
+    ``eval_freq`` (greedy unless ``deterministic=False``), on observations normalised by the
+    model's ``VecNormalize`` when it trains under one. Training is unchanged: the evaluation
+    draws nothing from the model's generators and steps its own environment.
+    ``evaluations``: every ``(timestep, mean, std)``.
+
+    >>> from tlac import TLAC
+    >>> model = TLAC("CartPole-v1", teachers=lambda obs: 0)  # doctest: +SKIP
+    >>> model.learn(20_000, callback=StudentEvalCallback("CartPole-v1", eval_freq=5_000))  # doctest: +SKIP
+    """
+
+    def __init__(
+        self,
+        eval_env: Any,
+        eval_freq: int = 10_000,
+        n_eval_episodes: int = 10,
+        deterministic: bool = True,
+        seed: int | None = None,
+        verbose: int = 0,
+    ):
+        super().__init__(verbose)
+        for name, value, least in (
+            ("eval_freq", eval_freq, 1),
+            ("n_eval_episodes", n_eval_episodes, 1),
+        ):
+            if isinstance(value, bool) or not isinstance(value, int) or value < least:
+                raise ConfigError(
+                    f"StudentEvalCallback: {name} must be a positive integer, got {value!r}"
+                )
+        self.eval_env = _one_env(eval_env)
+        self.eval_freq, self.n_eval_episodes = eval_freq, n_eval_episodes
+        self.deterministic, self.seed = bool(deterministic), seed
+        self.evaluations: list[tuple[int, float, float]] = []
+        self._next_eval = eval_freq
+
+    def _init_callback(self) -> None:
+        steps = self.model.num_timesteps
+        self._next_eval = (steps // self.eval_freq + 1) * self.eval_freq
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_start(self) -> None:  # after the previous rollout's update
+        self._evaluate_if_due()
+
+    def _on_training_end(self) -> None:  # after the last update
+        self._evaluate_if_due()
+
+    def _evaluate_if_due(self) -> None:
+        steps = self.model.num_timesteps
+        if steps < self._next_eval:
+            return
+        self._next_eval = (steps // self.eval_freq + 1) * self.eval_freq
+        vec_normalize = self.model.get_vec_normalize_env()
+
+        def act(obs: np.ndarray) -> np.ndarray:
+            if vec_normalize is not None:  # what the student sees in training
+                obs = vec_normalize.normalize_obs(obs)
+            return self.model.predict(obs, deterministic=self.deterministic)[0]
+
+        seed = 10_000 + int(self.model.seed) if self.seed is None else self.seed
+        returns = episode_returns(act, [self.eval_env], self.n_eval_episodes, seed)
+        mean, std = float(returns.mean()), float(returns.std())
+        self.evaluations.append((steps, mean, std))
+        self.logger.record("eval/student_alone_mean", mean)
+        self.logger.record("eval/student_alone_std", std)
+        self.logger.dump(steps)
+        if self.verbose:
+            print(f"step {steps}: student alone {mean:.3f} +- {std:.3f} ({len(returns)} episodes)")
+
+
+def _one_env(env: Any) -> gym.Env:
+    """The evaluation environment of :class:`StudentEvalCallback`: a Gymnasium env as given,
+    or made from a Gymnasium id or a domain name."""
+    if isinstance(env, str) and env in domain_names():
+        return get_domain(env).make_env()
+    if isinstance(env, str) and env in gym.registry:
+        return gym.make(env)
+    if isinstance(env, str):
+        raise ConfigError(
+            f"StudentEvalCallback: unknown environment {env!r}; expected a Gymnasium id or a "
+            f"domain name ({', '.join(domain_names())})"
+        )
+    if not isinstance(env, gym.Env):
+        kind = "an SB3 VecEnv" if isinstance(env, VecEnv) else type(env).__name__
+        raise ConfigError(
+            f"StudentEvalCallback: eval_env must be a gymnasium.Env, a Gymnasium id or a domain "
+            f"name, got {kind} (the student is evaluated on the environment's own observations; "
+            "under the model's VecNormalize they are normalised with its statistics)"
+        )
+    return env
