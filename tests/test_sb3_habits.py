@@ -1,7 +1,9 @@
 """What stable-baselines3 users do out of habit works on TL-AC (issue 65): SB3's own callbacks
 and callbacks reading ``self.locals`` at every step, ``model.ep_info_buffer``, ``seed=None``,
 one teacher without a list, an SB3 policy as a teacher, SB3's argument order refused in
-one line, and SB3's schedules (functions of the progress remaining, decaying to 0)."""
+one line, SB3's schedules (functions of the progress remaining, decaying to 0), a model
+trained under VecNormalize used on raw observations, the student evaluated alone from Python,
+and ``model.policy`` as a torch module to export."""
 
 from __future__ import annotations
 
@@ -453,7 +455,49 @@ def test_student_eval_callback_logs_the_student_alone(tmp_path) -> None:
     alone = model()
     alone.learn(384)
     assert same_weights(alone, watched)  # training unchanged
-    with pytest.raises(ConfigError, match="eval_env must be a gymnasium.Env, a Gymnasium id"):
+    with pytest.raises(ConfigError, match=r"eval_env must be a gymnasium\.Env, a Gymnasium id"):
         StudentEvalCallback(cartpole(1))
     with pytest.raises(ConfigError, match="eval_freq must be a positive integer, got 0"):
         StudentEvalCallback("CartPole-v1", eval_freq=0)
+
+
+JIT_TRACE_IS_DEPRECATED = pytest.mark.filterwarnings("ignore:`torch.jit.trace")
+
+
+@JIT_TRACE_IS_DEPRECATED
+@pytest.mark.parametrize("env_id", ["CartPole-v1", "Pendulum-v1"])
+def test_model_policy_is_the_deployed_student_as_a_torch_module(env_id: str) -> None:
+    torch.set_num_threads(1)
+    env = gym.make(env_id)
+    obs = np.stack([env.observation_space.sample() for _ in range(256)]).astype(np.float32)
+    m = TLAC(env, seed=0, **SMALL).learn(128)
+    live = greedy(m, obs)
+    m.deployed = m._snapshot_student()  # the kept student: what predict deploys from now on
+    m.learn(128)
+    assert m.deployed is not None and np.array_equal(greedy(m, obs), live)
+    traced = torch.jit.trace(m.policy, torch.from_numpy(obs[:8]))  # SB3's export recipe's way
+    out = traced(torch.from_numpy(obs)).detach().numpy()
+    if isinstance(env.action_space, gym.spaces.Discrete):
+        assert np.array_equal(out.argmax(-1), live)  # the logits
+    else:
+        low, high = env.action_space.low, env.action_space.high
+        np.testing.assert_allclose(np.clip(out, low, high), live, atol=1e-6)  # the mean
+    policy_actions = m.policy.predict(obs, deterministic=True)[0]
+    np.testing.assert_allclose(policy_actions, live, atol=1e-6)  # SB3's policy.predict
+    assert m.policy.predict(obs[0])[0].shape == env.action_space.shape  # one, sampled
+
+
+@JIT_TRACE_IS_DEPRECATED
+def test_model_policy_normalises_as_predict_does(tmp_path) -> None:
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    torch.set_num_threads(1)
+    venv = VecNormalize(cartpole(2))
+    path = TLAC(venv, teachers=[Pushes()], seed=0, **SMALL).learn(256).save(tmp_path / "m")
+    loaded = TLAC.load(path)  # predict normalises raw observations with the saved statistics
+    raw = np.random.default_rng(0).normal(scale=2.0, size=(256, 4)).astype(np.float32)
+    logits = torch.jit.trace(loaded.policy, torch.from_numpy(raw[:8]))(torch.from_numpy(raw))
+    assert np.array_equal(logits.detach().numpy().argmax(-1), greedy(loaded, raw))
+    onehot = TLAC(gym.make("FrozenLake-v1"), seed=0, **SMALL)
+    with pytest.raises(ConfigError, match=r"^model.policy covers Box observations read by"):
+        onehot.policy  # noqa: B018

@@ -37,6 +37,7 @@ from tlac.algorithms.nets import (
 from tlac.algorithms.normalization import Normalizer
 from tlac.algorithms.obs_spaces import ObsEncoder, ObsLayout, ObsPolicy, make_layout
 from tlac.algorithms.optim import ForeachAdam, ForeachRMSpropTFLike
+from tlac.algorithms.student_policy import StudentPolicy, student_policy
 from tlac.errors import ConfigError
 from tlac.memory import FLOAT_BYTES, check_fits, mlp_params, network_bytes
 from tlac.presets import make_schedule
@@ -473,6 +474,15 @@ class TLACHeads:
             actions = low_out + noise.astype(np.float32)
         env_actions = self._to_env_actions(actions)
         return (env_actions[0] if single else env_actions), None
+
+    @property
+    def policy(self) -> StudentPolicy:
+        """The student that :meth:`predict` deploys now, as a torch module (SB3's
+        ``model.policy``, for its ONNX export recipe or ``torch.jit.trace``): raw observations
+        -> the normalisation ``predict`` applies -> the low level's logits (Discrete) or mean
+        (Box); ``policy.predict`` is SB3's. A copy: take it again after training
+        (tlac.algorithms.student_policy)."""
+        return student_policy(self)
 
     def predict_with_teachers(self, obs: np.ndarray, deterministic: bool = False) -> np.ndarray:
         """The training-time behaviour: the high level picks a teacher or the agent per row.
