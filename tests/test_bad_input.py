@@ -287,7 +287,8 @@ CLI_CASES += [
     # tlac report
     (["report", "/no/such/folder"], "/no/such/folder"),
     (["report", "BROKEN/a_file"], "a_file"),
-    (["report", "RUN"], "experiment.yaml"),
+    (["report", "BROKEN/bad_config_run"], "config.yaml'"),
+    (["report", "BROKEN/bad_algo_run"], "config.yaml': unknown algorithm 'sac'"),
     (["report", "BROKEN/bad_experiment_yaml"], "experiment.yaml"),
     (["report", "BROKEN/no_experiment_yaml"], "experiment.yaml"),
     (["report", "BROKEN/bad_episodes_csv"], "episodes.csv"),

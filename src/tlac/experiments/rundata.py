@@ -18,7 +18,7 @@ from typing import Any
 
 import pandas as pd
 
-from tlac.algorithms import NO_ADVICE
+from tlac.algorithms import NO_ADVICE, get_algorithm
 from tlac.errors import ConfigError, read_yaml_file
 from tlac.experiments.archive import RunFiles, RunStore
 from tlac.experiments.config import NO_TEACHERS, ExperimentConfig, parse_config
@@ -197,6 +197,10 @@ def read_run_folder(run_dir: str | Path) -> Experiment:
     named ``teachers``), so that ``tlac report RUN`` reports it as a grid of one."""
     out = Path(run_dir)
     run = load_run_config(out)
+    try:
+        get_algorithm(run["algo"])
+    except ConfigError as exc:
+        raise ConfigError(f"{str(out / 'config.yaml')!r}: {exc}") from None
     algo, teachers = run["algo"], run.get("teacher_kinds") or run.get("teachers") or []
     entry: dict[str, Any] = {"name": algo}
     if algo == "tlac" and run.get("selector", "learned") != "learned":
