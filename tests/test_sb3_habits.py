@@ -501,3 +501,4 @@ def test_model_policy_normalises_as_predict_does(tmp_path) -> None:
     onehot = TLAC(gym.make("FrozenLake-v1"), seed=0, **SMALL)
     with pytest.raises(ConfigError, match=r"^model.policy covers Box observations read by"):
         onehot.policy  # noqa: B018
+    assert not hasattr(onehot, "policy")  # (an AttributeError too, as for a model without one)

@@ -127,11 +127,16 @@ class StudentPolicy(nn.Module):
         return (result[0] if single else result), None
 
 
+class NoStudentPolicy(ConfigError, AttributeError):
+    """``model.policy`` where it is not offered: a ConfigError that is also an AttributeError,
+    so that ``hasattr(model, "policy")`` stays False there, as for a model without one."""
+
+
 def student_policy(model: Any) -> StudentPolicy:
     """``model.policy``: a :class:`StudentPolicy` of what ``model.predict`` deploys now (the
     kept student, else the live low level), with its observation normalisation."""
     if model.obs_layout is not None or model.encoder is not None:
-        raise ConfigError(
+        raise NoStudentPolicy(
             f"model.policy covers Box observations read by the MLP as they are; this model "
             f"reads {model.observation_space} through tlac's encoder (one-hot, Dict or image), "
             "whose flattening runs in NumPy: use model.predict"
