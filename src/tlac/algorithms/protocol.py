@@ -86,7 +86,8 @@ def _shape(func: Any) -> list[tuple[str, Any, Any]]:
 def conforms(cls: type) -> list[str]:
     """How ``cls``'s methods differ from :class:`Algorithm`'s (parameter names, kinds and
     defaults; ``learn``'s ``progress_bar`` default is each algorithm's own, and its other SB3
-    keywords are allowed); empty when they match."""
+    keywords are allowed, as are ``load``'s after the protocol's, with defaults); empty when
+    they match."""
     problems = []
     for name in _METHODS:
         want = _shape(getattr(Algorithm, name))
@@ -100,6 +101,8 @@ def conforms(cls: type) -> list[str]:
         if name == "learn":  # SB3's other keywords (TL-AC: log_interval...) may come between
             names = {w[0] for w in want}
             want, got = [w[:2] for w in want], [g[:2] for g in got if g[0] in names]
+        elif name == "load" and all(g[2] is not inspect.Parameter.empty for g in got[len(want) :]):
+            got = got[: len(want)]  # SB3's other keywords (TL-AC: device...) may follow
         if got != want:
             problems.append(f"{cls.__name__}.{name}{got} != Algorithm.{name}{want}")
     return problems
