@@ -464,8 +464,8 @@ def env_rows(out: Path, env_id: str, seeds: list[int]) -> tuple[list[str], list[
 
 def plot(out: Path, figures: dict[str, tuple[dict, list[dict]]]) -> None:
     """One panel per environment: the student alone (seed mean +- std) against its teacher's
-    measured quality, beside a random teacher (filled) or alone (open), with PPO alone and the
-    teacher's own return."""
+    measured quality, beside a random teacher (line), alone (open squares) or adversarial (x),
+    with PPO alone and the teacher's own return."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -473,19 +473,23 @@ def plot(out: Path, figures: dict[str, tuple[dict, list[dict]]]) -> None:
 
     fig, axes = plt.subplots(1, len(figures), figsize=(4 * len(figures), 3.6), squeeze=False)
     for ax, (env_id, (teachers, points)) in zip(axes[0], figures.items(), strict=True):
-        for alone in (False, True):
-            pts = sorted((p for p in points if ("+" in p["case"]) != alone), key=lambda p: p["q"])
-            if not pts:
-                continue
-            ax.errorbar(
-                [p["q"] for p in pts],
-                [p["mean"] for p in pts],
-                yerr=[p["std"] for p in pts],
-                fmt="o-" if not alone else "s",
-                mfc="white" if alone else None,
-                capsize=3,
-                label="student alone: " + ("its one teacher" if alone else "teacher + random"),
-            )
+        kinds = {  # which points, how drawn, their label
+            "teacher + random": (lambda c: "+" in c and not c.startswith("adv"), "o-", None),
+            "its one teacher": (lambda c: "+" not in c, "s", "white"),
+            "adversarial + random": (lambda c: c.startswith("adv"), "x", None),
+        }
+        for label, (member, fmt, face) in kinds.items():
+            pts = sorted((p for p in points if member(p["case"])), key=lambda p: p["q"])
+            if pts:
+                ax.errorbar(
+                    [p["q"] for p in pts],
+                    [p["mean"] for p in pts],
+                    yerr=[p["std"] for p in pts],
+                    fmt=fmt,
+                    mfc=face,
+                    capsize=3,
+                    label=f"student alone: {label}",
+                )
         qs = sorted(t["q"] for t in teachers["teachers"].values())
         ax.plot(
             qs,
