@@ -414,6 +414,7 @@ def test_teacher_led_rows_carry_the_leader_as_the_high_level_choice():
         teacher_episodes=1.0,
         solo_budget=1e-9,  # (solo episodes on, almost never drawn)
     )
+    model.solo.solo_episodes, model.solo.led_counts[:] = 5, 3  # (past the audition)
     ro = model.collect()
     choices, actions = ro.choices.reshape(-1), ro.actions.reshape(-1)
     assert set(np.unique(choices).tolist()) <= {0, 1}  # never the agent, never mixed per step
@@ -445,23 +446,44 @@ def test_the_copy_is_weaned_against_the_best_teacher_alone():
     """The imitation fades as the student alone matches the best teacher ALONE (the mean of
     its led episodes), not a per-step mix of teachers and student that can beat both: solo 5
     over a floor of 0, teachers led alone at 4 (teacher 0) and 2 (teacher 1), a mix at 10 ->
-    weaning min(1, 5 / 4) = 1 where competence is 5 / 10. Before any led episode: competence."""
+    weaning min(1, 5 / 4) = 1 where competence is 5 / 10. Before every teacher has led
+    MIN_LED_EPISODES (3) episodes: 1, nothing copied (the audition)."""
     solo = SoloEpisodes(1, budget=0.2, seed=0, min_episodes=1, n_teachers=2, teacher_share=0.3)
     solo.active[:] = True
     solo.end(0, 0.0)  # the floor
     solo.active[:] = False
     solo.end(0, 10.0)  # a mixed assisted episode
-    assert solo.weaning == solo.competence == 0.0
+    assert solo.competence == 0.0 and solo.weaning == 1.0 and solo.auditioning
     solo.active[:] = True
     solo.end(0, 10.0)  # solo mean 5
-    assert solo.weaning == solo.competence == 0.5
+    assert solo.competence == 0.5 and solo.weaning == 1.0
     solo.active[:] = False
-    for teacher, episode_return in [(0, 3.0), (0, 5.0), (1, 2.0)]:
+    for teacher, episode_return in [(0, 3.0), (0, 5.0), (1, 2.0), (0, 4.0), (1, 2.0), (1, 2.0)]:
         solo.leader[0] = teacher
         solo.end(0, episode_return)
-    assert solo.competence == 0.5 and solo.weaning == 1.0
+    assert not solo.auditioning and solo.competence == 0.5 and solo.weaning == 1.0
     solo.solo_returns.extend([1.0] * 18)  # solo mean 28 / 20 = 1.4: 1.4 / 4 of the best teacher
     assert solo.weaning == pytest.approx(0.35)
+
+
+def test_the_first_episodes_measure_the_student_and_each_teacher_before_any_copy():
+    """Issue 63's audition: the student alone for ``min_episodes`` episodes (its floor), then
+    each teacher leads until it has led MIN_LED_EPISODES (3), the least-led first; nothing is
+    copied meanwhile (weaning 1). Then the draws of solo_budget and teacher_share."""
+    solo = SoloEpisodes(1, budget=0.2, seed=0, min_episodes=2, n_teachers=2, teacher_share=0.3)
+    kinds = []
+    while solo.auditioning:
+        assert solo.weaning == 1.0
+        solo.start(np.ones(1, dtype=bool))
+        kinds.append("solo" if solo.active[0] else f"teacher {solo.leader[0]}")
+        solo.end(0, 1.0 if solo.active[0] else 5.0 + solo.leader[0])
+    assert kinds[:2] == ["solo", "solo"] and len(kinds) == 8
+    assert sorted(kinds[2:4]) == sorted(kinds[4:6]) == ["teacher 0", "teacher 1"]
+    assert kinds[2:].count("teacher 0") == kinds[2:].count("teacher 1") == 3
+    # teachers at 5 and 6 over the floor 1: competence 0, a full copy, solo budget 0.2
+    assert solo.weaning == 0.0 and solo.probability == pytest.approx(0.2)
+    # without teacher-led episodes there is no audition (the paper's DoorKey presets)
+    assert not SoloEpisodes(1, 0.2, seed=0, n_teachers=2).auditioning
 
 
 def test_teachers_that_show_nothing_above_the_floor_are_not_copied():
@@ -484,8 +506,10 @@ def test_teachers_that_show_nothing_above_the_floor_are_not_copied():
         lead(0, -500.0)
     for _ in range(2):
         lead(1, -500.0)
-    assert not solo.no_teacher_helps  # teacher 1 has led 2 episodes only
-    assert solo.weaning == 0.0 and solo.probability == pytest.approx(0.2)
+    assert not solo.no_teacher_helps and solo.auditioning  # teacher 1 has led 2 episodes only
+    assert solo.weaning == 1.0 and solo.probability == 0.0  # the audition: teacher 1 leads next
+    solo.start(np.ones(1, dtype=bool))
+    assert not solo.active[0] and solo.leader[0] == 1
     lead(1, -500.0)
     assert solo.no_teacher_helps
     assert solo.weaning == 1.0 and solo.probability == pytest.approx(0.9)
@@ -730,6 +754,8 @@ def test_weaned_imitation_hands_over_with_an_entropy_bonus():
     model = TLAC(gym.make("Acrobot-v1"), teachers=[lambda obs: 2], seed=0)
     solo = model.solo
     solo.floor, solo.best_assisted = -500.0, -100.0
+    solo.solo_episodes = 20  # past the audition: the teacher led 3 episodes at -100
+    solo.led_sums[:], solo.led_squares[:], solo.led_counts[:] = -300.0, 30_000.0, 3
     solo.solo_returns.extend([-300.0] * 20)
     assert solo.competence == pytest.approx(0.5)
     assert model._entropy_coefs().tolist() == pytest.approx([0.025, 0.01])
