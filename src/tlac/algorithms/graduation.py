@@ -254,9 +254,13 @@ class SoloEpisodes:
         reaches a sparse goal took the student's exploration away before it could be judged
         (Acrobot: the low level's entropy at 0.04 of 1.10 nats after 4k steps; the student
         alone at -500 where PPO alone reaches -83, issue 63)."""
-        return self.teacher_share > 0 and self.budget > 0 and (
-            self.solo_episodes < self.min_episodes
-            or bool((self.led_counts < MIN_LED_EPISODES).any())
+        return (
+            self.teacher_share > 0
+            and self.budget > 0
+            and (
+                self.solo_episodes < self.min_episodes
+                or bool((self.led_counts < MIN_LED_EPISODES).any())
+            )
         )
 
     @property
