@@ -60,11 +60,17 @@ def test_the_adversarial_teacher_plays_what_its_network_ranks_worst():
 
 def test_time_verdicts():
     """TL-AC at 90% in 12 s on every seed against PPO's 10 s: 1.2x; a seed of TL-AC that never
-    gets there where all of PPO's do: inf; neither ever: 1."""
+    gets there where all of PPO's do: inf; neither ever: 1. Steps are read from the curve's
+    first column, seconds from its third."""
     reach = lambda seconds: {"curve": [[4096, -400.0, seconds / 2], [8192, -90.0, seconds]]}  # noqa: E731
     never = {"curve": [[4096, -400.0, 5.0], [8192, -300.0, 10.0]]}
-    ratio, _, _ = sweep.seconds_ratio([reach(12.0)] * 2, [reach(10.0)] * 2, -100.0)
+    ours, theirs = [reach(12.0)] * 2, [reach(10.0)] * 2
+    assert sweep.reach_time(ours, -100.0, "seconds") == (0, 12.0)
+    assert sweep.reach_time(ours, -100.0, "steps") == (0, 8192.0)
+    ratio = sweep.time_ratio(
+        sweep.reach_time(ours, -100.0, "seconds"), sweep.reach_time(theirs, -100.0, "seconds")
+    )
     assert ratio == pytest.approx(1.2)
-    assert sweep.seconds_ratio([reach(8.0), never], [reach(10.0)] * 2, -100.0)[0] == np.inf
-    assert sweep.seconds_ratio([never], [never], -100.0)[0] == 1.0
-    assert sweep.seconds_ratio([reach(30.0)], [never], -100.0)[0] == 0.0
+    assert sweep.reach_time([reach(8.0), never], -100.0, "steps") == (1, 8192.0)
+    assert sweep.time_ratio((1, 8192.0), (0, 8192.0)) == np.inf
+    assert sweep.time_ratio(sweep.reach_time([never], -100.0, "steps"), (1, np.inf)) == 1.0
