@@ -225,8 +225,8 @@ class TLACConfig:
     on its own (weaned imitation measures the student against the best of them), and their
     rows train the high level like its own choices, so it learns whom to follow where per-step
     mixing never completes a task (MountainCar). The first episodes audition: the student
-    alone until its floor is measured, then each teacher leads 3, and nothing is copied until
-    then (SoloEpisodes.auditioning). 0: none (both variants); presets/default.yaml sets it
+    alone until its floor is measured, then each teacher leads 3, and under wean_imitation
+    nothing is copied until then (SoloEpisodes.auditioning). 0: none (both variants); presets/default.yaml sets it
     (docs/graduation.md)."""
     kl_rows: str | None = None
     """Which rows give the low level's approximate KL for the target-KL stop: agent (where the
