@@ -384,7 +384,9 @@ def _api_cases() -> list[tuple[str, object, str]]:
     def tlac(**kw):
         return lambda: TLAC("doorkey", teachers=["optimal"], **kw)
 
-    def learn(teacher, steps=64):
+    def learn(teacher, steps=1100):
+        # (past the audition: Pendulum's first 5 episodes, 1,000 steps, are the student's
+        # alone, and the teacher is first asked when it leads the next one)
         def go():
             TLAC(_pendulum(), teachers=[teacher], seed=0, n_steps=16, batch_size=16).learn(
                 steps, progress_bar=False
