@@ -455,10 +455,51 @@ def test_student_eval_callback_logs_the_student_alone(tmp_path) -> None:
     alone = model()
     alone.learn(384)
     assert same_weights(alone, watched)  # training unchanged
-    with pytest.raises(ConfigError, match=r"eval_env must be a gymnasium\.Env, a Gymnasium id"):
-        StudentEvalCallback(cartpole(1))
+    with pytest.raises(ConfigError, match=r"eval_env must be a gymnasium\.Env, an SB3 VecEnv"):
+        StudentEvalCallback(object())
     with pytest.raises(ConfigError, match="eval_freq must be a positive integer, got 0"):
         StudentEvalCallback("CartPole-v1", eval_freq=0)
+
+
+def test_student_eval_callback_takes_a_vec_env_as_evaluate_policy_does() -> None:
+    from stable_baselines3.common.evaluation import evaluate_policy
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from tlac import StudentEvalCallback
+
+    watched = model()
+    evals = StudentEvalCallback(VecMonitor(cartpole(2)), eval_freq=128, n_eval_episodes=3)
+    watched.learn(256, callback=evals)
+    assert [t for t, _, _ in evals.evaluations] == [128, 256]
+    by_sb3, _ = evaluate_policy(watched, seeded(VecMonitor(cartpole(2)), 10_000), 3, True, False)
+    assert np.isclose(evals.evaluations[-1][1], by_sb3)  # SB3's counting, seeds 10000, 10001
+    alone = model()
+    alone.learn(256)
+    assert same_weights(alone, watched)  # training unchanged
+
+
+def test_student_eval_callback_syncs_a_vec_normalize_as_eval_callback_does() -> None:
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from tlac import StudentEvalCallback
+    from tlac.evaluation import vec_episode_returns
+
+    torch.set_num_threads(1)
+    m = TLAC(VecNormalize(cartpole(2)), teachers=[Pushes()], seed=0, **SMALL)
+    in_eval = VecNormalize(cartpole(1), training=False, norm_reward=True)  # its own statistics
+    evals = StudentEvalCallback(in_eval, eval_freq=128, n_eval_episodes=2)
+    m.learn(128, callback=evals)
+    stats = m.get_vec_normalize_env()
+    assert np.array_equal(in_eval.obs_rms.mean, stats.obs_rms.mean)  # synced before
+    raw_returns = vec_episode_returns(  # raw observations, normalised as in training
+        lambda o: greedy(m, stats.normalize_obs(o)), cartpole(1), 2, 10_000 + m.seed
+    )
+    assert evals.evaluations[-1][1] == raw_returns.mean()  # raw rewards too
+
+
+def seeded(venv: Any, seed: int) -> Any:
+    venv.seed(seed)
+    return venv
 
 
 JIT_TRACE_IS_DEPRECATED = pytest.mark.filterwarnings("ignore:`torch.jit.trace")
