@@ -79,10 +79,9 @@ def test_train_then_eval(tmp_path, capsys):
     ("args", "fragment"),
     [
         (["train", "--env", "atari"], "unknown environment 'atari'"),
-        (
-            ["train", "--env", "CartPole-v1"],
-            "'CartPole-v1' is a Gymnasium id, not a tlac domain (doorkey, ",
-        ),
+        (["train", "--env", "CartPole-v1"], "'CartPole-v1' is a Gymnasium id, with no teachers"),
+        (["train", "--env", "CartPole-v1", "--teachers", "none.py:pd"], "no such file 'none.py'"),
+        (["train", "--env", "CartPole-v1", "--teachers", "agent.zip:2"], "outside [0, 1]"),
         (["train", "--teachers", "optimal,wizard"], "unknown teacher for doorkey 'wizard'"),
         (["train", "--teachers", "optimal:1.5"], "probability 1.5 is outside [0, 1]"),
         (["train", "--steps", "0"], "expected a positive integer"),
@@ -154,11 +153,58 @@ def test_envs_and_train_say_how_to_use_a_gymnasium_id(capsys):
     out = capsys.readouterr().out
     assert "Any registered Gymnasium id (CartPole-v1, ...) works from Python: " in out
     assert "TLAC('CartPole-v1', teachers=[...])" in out
+    assert "tlac train --env CartPole-v1 --teachers path/to/file.py:NAME" in out
     assert "tlac train --env path/to/file.py:DOMAIN (examples/my_domain.py)" in out
     assert main(["train", "--env", "CartPole-v1", "--steps", "64"]) == 2
     err = capsys.readouterr().err
-    assert "from Python TLAC('CartPole-v1', teachers=[...]) takes it" in err
-    assert "--env path/to/file.py:DOMAIN (examples/my_domain.py is one for CartPole-v1)" in err
+    assert "give --teachers path/to/file.py:NAME" in err and len(err.splitlines()) == 1
+
+
+TINY = ["--set", "n_steps=64", "--set", "batch_size=64", "--eval-episodes", "2", "--no-progress"]
+
+
+def test_train_a_gymnasium_id_with_teachers_from_files(tmp_path, capsys):
+    from stable_baselines3 import PPO
+
+    (tmp_path / "mine.py").write_text("def pd(obs):\n    return int(obs[2] + 0.5 * obs[3] > 0)\n")
+    agent = tmp_path / "zoo" / "ppo.zip"
+    PPO("MlpPolicy", "CartPole-v1", seed=0, device="cpu").save(agent)
+    teachers = f"{tmp_path / 'mine.py'}:pd,{agent}:0.5,random"
+    out = tmp_path / "run"
+    argv = ["train", "--env", "CartPole-v1", "--teachers", teachers, "--steps", "128"]
+    assert main([*argv, "--out", str(out), *TINY]) == 2  # an agent's pickles: not unasked
+    err = capsys.readouterr().err
+    assert "ppo.zip" in err and "pass --trust-pickle" in err and len(err.splitlines()) == 1
+    assert not out.exists()
+    assert main([*argv, "--out", str(out), *TINY, "--trust-pickle"]) == 0
+    usage = (out / "teacher_usage.csv").read_text()
+    assert ",pd," in usage and ",ppo:0.5," in usage and ",random," in usage
+    config = yaml.safe_load((out / "config.yaml").read_text())
+    assert config["env"] == "CartPole-v1" and config["teacher_kinds"] == teachers.split(",")
+    capsys.readouterr()
+    assert main(["eval", str(out), "--episodes", "2", "--json"]) == 0  # gym.make: no code
+    assert json.loads(capsys.readouterr().out)["episodes"] == 2
+    assert main(["eval", str(out), "--episodes", "2", "--with-teachers"]) == 2
+    assert "pass --trust-code" in capsys.readouterr().err
+    argv = ["eval", str(out), "--episodes", "2", "--with-teachers", "--json", "--trust-code"]
+    assert main(argv) == 2
+    assert "pass --trust-pickle" in capsys.readouterr().err
+    assert main([*argv, "--trust-pickle"]) == 0
+    assert "with_teachers_mean" in json.loads(capsys.readouterr().out)
+
+
+def test_eval_imports_a_runs_domain_file_when_told_to(tmp_path, capsys):
+    domain = Path(__file__).parents[1] / "examples" / "my_domain.py"
+    out = tmp_path / "run"
+    argv = ["train", "--env", f"{domain}:DOMAIN", "--steps", "64", "--out", str(out), *TINY]
+    assert main(argv) == 0
+    capsys.readouterr()
+    assert main(["eval", str(out), "--episodes", "2"]) == 2
+    err = capsys.readouterr().err
+    assert "domain file" in err and "pass --trust-code" in err and len(err.splitlines()) == 1
+    assert main(["eval", str(out), "--episodes", "2", "--trust-code", "--with-teachers"]) == 0
+    printed = capsys.readouterr().out
+    assert "student alone (2 episodes)" in printed and "with its teachers" in printed
 
 
 def test_report_of_one_run_folder(tmp_path, capsys):

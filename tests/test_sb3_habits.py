@@ -455,10 +455,51 @@ def test_student_eval_callback_logs_the_student_alone(tmp_path) -> None:
     alone = model()
     alone.learn(384)
     assert same_weights(alone, watched)  # training unchanged
-    with pytest.raises(ConfigError, match=r"eval_env must be a gymnasium\.Env, a Gymnasium id"):
-        StudentEvalCallback(cartpole(1))
+    with pytest.raises(ConfigError, match=r"eval_env must be a gymnasium\.Env, an SB3 VecEnv"):
+        StudentEvalCallback(object())
     with pytest.raises(ConfigError, match="eval_freq must be a positive integer, got 0"):
         StudentEvalCallback("CartPole-v1", eval_freq=0)
+
+
+def test_student_eval_callback_takes_a_vec_env_as_evaluate_policy_does() -> None:
+    from stable_baselines3.common.evaluation import evaluate_policy
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from tlac import StudentEvalCallback
+
+    watched = model()
+    evals = StudentEvalCallback(VecMonitor(cartpole(2)), eval_freq=128, n_eval_episodes=3)
+    watched.learn(256, callback=evals)
+    assert [t for t, _, _ in evals.evaluations] == [128, 256]
+    by_sb3, _ = evaluate_policy(watched, seeded(VecMonitor(cartpole(2)), 10_000), 3, True, False)
+    assert np.isclose(evals.evaluations[-1][1], by_sb3)  # SB3's counting, seeds 10000, 10001
+    alone = model()
+    alone.learn(256)
+    assert same_weights(alone, watched)  # training unchanged
+
+
+def test_student_eval_callback_syncs_a_vec_normalize_as_eval_callback_does() -> None:
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from tlac import StudentEvalCallback
+    from tlac.evaluation import vec_episode_returns
+
+    torch.set_num_threads(1)
+    m = TLAC(VecNormalize(cartpole(2)), teachers=[Pushes()], seed=0, **SMALL)
+    in_eval = VecNormalize(cartpole(1), training=False, norm_reward=True)  # its own statistics
+    evals = StudentEvalCallback(in_eval, eval_freq=128, n_eval_episodes=2)
+    m.learn(128, callback=evals)
+    stats = m.get_vec_normalize_env()
+    assert np.array_equal(in_eval.obs_rms.mean, stats.obs_rms.mean)  # synced before
+    raw_returns = vec_episode_returns(  # raw observations, normalised as in training
+        lambda o: greedy(m, stats.normalize_obs(o)), cartpole(1), 2, 10_000 + m.seed
+    )
+    assert evals.evaluations[-1][1] == raw_returns.mean()  # raw rewards too
+
+
+def seeded(venv: Any, seed: int) -> Any:
+    venv.seed(seed)
+    return venv
 
 
 JIT_TRACE_IS_DEPRECATED = pytest.mark.filterwarnings("ignore:`torch.jit.trace")
@@ -498,7 +539,103 @@ def test_model_policy_normalises_as_predict_does(tmp_path) -> None:
     raw = np.random.default_rng(0).normal(scale=2.0, size=(256, 4)).astype(np.float32)
     logits = torch.jit.trace(loaded.policy, torch.from_numpy(raw[:8]))(torch.from_numpy(raw))
     assert np.array_equal(logits.detach().numpy().argmax(-1), greedy(loaded, raw))
-    onehot = TLAC(gym.make("FrozenLake-v1"), seed=0, **SMALL)
-    with pytest.raises(ConfigError, match=r"^model.policy covers Box observations read by"):
-        onehot.policy  # noqa: B018
-    assert not hasattr(onehot, "policy")  # (an AttributeError too, as for a model without one)
+    lake = TLAC(gym.make("FrozenLake-v1"), seed=0, **SMALL)
+    lake.saved_vec_normalize = loaded.saved_vec_normalize  # (no VecNormalize takes a Discrete)
+    with pytest.raises(ConfigError, match=r"^model.policy applies a saved VecNormalize to Box"):
+        lake.policy  # noqa: B018
+    assert not hasattr(lake, "policy")  # (an AttributeError too, as for a model without one)
+
+
+class DictWorld(gym.Env):
+    """Ten steps of random Dict observations (a Box, a Discrete and a MultiDiscrete key);
+    action 1 pays."""
+
+    observation_space = gym.spaces.Dict(
+        {
+            "pos": gym.spaces.Box(-1.0, 1.0, (2,)),
+            "room": gym.spaces.Discrete(3),
+            "keys": gym.spaces.MultiDiscrete([2, 3]),
+        }
+    )
+    action_space = gym.spaces.Discrete(3)
+
+    def reset(self, seed: int | None = None, options: Any = None) -> Any:
+        super().reset(seed=seed)
+        self.observation_space.seed(seed)
+        self.t = 0
+        return self.observation_space.sample(), {}
+
+    def step(self, action: Any) -> Any:
+        self.t += 1
+        return self.observation_space.sample(), float(action == 1), self.t >= 10, False, {}
+
+
+def rgb_view() -> gym.Env:
+    from minigrid.wrappers import ImgObsWrapper, RGBImgPartialObsWrapper
+
+    return ImgObsWrapper(RGBImgPartialObsWrapper(gym.make("MiniGrid-Empty-5x5-v0")))
+
+
+def samples(space: gym.Space, n: int) -> Any:
+    """``n`` observations of ``space`` as one batch (a dict of batches for a Dict space)."""
+    space.seed(0)
+    drawn = [space.sample() for _ in range(n)]
+    if isinstance(space, gym.spaces.Dict):
+        return {key: np.stack([d[key] for d in drawn]) for key in space.spaces}
+    return np.stack(drawn)
+
+
+def as_tensors(obs: Any) -> Any:
+    if isinstance(obs, dict):
+        return {key: torch.as_tensor(value) for key, value in obs.items()}
+    return torch.as_tensor(obs)
+
+
+ENCODED = {
+    "FrozenLake (Discrete, one-hot)": lambda: TLAC(gym.make("FrozenLake-v1"), seed=0, **SMALL),
+    "Dict (Box, Discrete, MultiDiscrete keys)": lambda: TLAC(DictWorld(), seed=0, **SMALL),
+    "DoorKey (integer Box, one-hot)": lambda: TLAC(
+        "doorkey", teachers=["optimal"], seed=0, n_envs=1, **SMALL
+    ),
+    "MiniGrid RGB (CnnPolicy)": lambda: TLAC(
+        rgb_view(), teachers=[lambda image: 2], policy="CnnPolicy", seed=0, **SMALL
+    ),
+}
+
+
+@JIT_TRACE_IS_DEPRECATED
+@pytest.mark.parametrize("space", list(ENCODED))
+def test_model_policy_reads_encoded_observations_as_predict_does(space: str) -> None:
+    torch.set_num_threads(1)
+    m = ENCODED[space]().learn(64)
+    m.deployed = m._snapshot_student()  # the kept student (with its own CNN copy)
+    m.learn(32)
+    obs = samples(m.observation_space, 16 if m.obs_layout is not None else 64)
+    actions = greedy(m, obs)
+    few = as_tensors(obs if not isinstance(obs, dict) else {k: v[:4] for k, v in obs.items()})
+    traced = torch.jit.trace(m.policy, (few,) if isinstance(obs, dict) else few[:4])
+    assert np.array_equal(traced(as_tensors(obs)).detach().numpy().argmax(-1), actions)
+    assert np.array_equal(m.policy.predict(obs, deterministic=True)[0], actions)
+    one = {k: v[0] for k, v in obs.items()} if isinstance(obs, dict) else obs[0]
+    assert m.policy.predict(one, deterministic=True)[0] == actions[0]  # one observation
+
+
+def test_model_policy_exports_to_onnx(tmp_path) -> None:
+    for module in ("onnx", "onnxscript", "onnxruntime"):  # torch's exporter, and to run it
+        pytest.importorskip(module, reason=f"{module} is not installed (pip install {module})")
+    import onnxruntime
+
+    torch.set_num_threads(1)
+    m = TLAC(gym.make("CartPole-v1"), seed=0, **SMALL).learn(64)
+    obs = samples(m.observation_space, 64).astype(np.float32)
+    path = tmp_path / "student.onnx"
+    torch.onnx.export(  # SB3's recipe: the module from observations to actions' logits
+        m.policy,
+        (torch.as_tensor(obs[:2]),),
+        str(path),
+        input_names=["obs"],
+        dynamic_shapes={"obs": {0: torch.export.Dim("batch")}},
+    )
+    session = onnxruntime.InferenceSession(str(path))
+    logits = session.run(None, {"obs": obs})[0]
+    assert np.array_equal(logits.argmax(-1), greedy(m, obs))

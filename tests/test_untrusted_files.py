@@ -137,8 +137,19 @@ def test_tlac_eval_imports_no_domain_file(tmp_path: Path, capsys) -> None:
     (run / "config.yaml").write_text(yaml.safe_dump(config))
     (run / "model.pt").write_bytes(b"")
     assert main(["eval", str(run), "--episodes", "1"]) == 2
-    assert "imports no domain file" in capsys.readouterr().err
+    assert "pass --trust-code if you trust the file" in capsys.readouterr().err
     assert not marker.exists()
+
+
+def test_an_sb3_zip_teacher_is_opened_only_with_trust_pickle(tmp_path: Path, capsys) -> None:
+    marker = tmp_path / "code-ran"
+    agent = sb3_zip(tmp_path / "agent.zip", marker)
+    out = tmp_path / "out"
+    argv = ["train", "--env", "CartPole-v1", "--teachers", f"{agent}:0.5", "--out", str(out)]
+    assert main([*argv, "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "agent.zip" in err and "--trust-pickle" in err and len(err.strip().splitlines()) == 1
+    assert not marker.exists() and not out.exists()
 
 
 def test_a_torn_last_row_is_cut_and_a_garbage_row_named(tmp_path: Path) -> None:

@@ -8,7 +8,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
-from stable_baselines3.common.vec_env import VecEnv
+from stable_baselines3.common.vec_env import VecEnv, sync_envs_normalization, unwrap_vec_normalize
 
 from tlac.domains import Domain, domain_names, get_domain
 from tlac.errors import ConfigError
@@ -75,14 +75,16 @@ class StudentEvalCallback(BaseCallback):
     """SB3 callback that evaluates the student alone (``model.predict``, no teacher) every
     ``eval_freq`` environment steps (over all environments, as ``tlac train --eval-every``;
     SB3's ``EvalCallback`` counts steps per environment) on ``n_eval_episodes`` episodes of
-    ``eval_env`` (a ``gymnasium.Env``, a Gymnasium id or a domain name), and logs
-    ``eval/student_alone_mean`` and ``eval/student_alone_std`` to the model's logger, which
+    ``eval_env`` (a ``gymnasium.Env``, an SB3 ``VecEnv``, a Gymnasium id or a domain name), and
+    logs ``eval/student_alone_mean`` and ``eval/student_alone_std`` to the model's logger, which
     writes them where ``verbose``, ``tensorboard_log`` or ``set_logger`` say. The episodes are
     seeded ``seed, seed + 1, ...`` at every evaluation (default ``10_000 + model.seed``, as
     ``tlac train``'s); the student is evaluated after the update that reaches each multiple of
     ``eval_freq`` (greedy unless ``deterministic=False``), on observations normalised by the
-    model's ``VecNormalize`` when it trains under one. Training is unchanged: the evaluation
-    draws nothing from the model's generators and steps its own environment.
+    model's ``VecNormalize`` when it trains under one. A ``VecEnv`` is evaluated as SB3's
+    ``evaluate_policy`` does (:func:`vec_episode_returns`); a ``VecNormalize`` in it gets the
+    training one's statistics first, as ``EvalCallback`` syncs them. Training is unchanged:
+    the evaluation draws nothing from the model's generators and steps its own environment.
     ``evaluations``: every ``(timestep, mean, std)``.
 
     >>> from tlac import TLAC
@@ -132,15 +134,7 @@ class StudentEvalCallback(BaseCallback):
         if steps < self._next_eval:
             return
         self._next_eval = (steps // self.eval_freq + 1) * self.eval_freq
-        vec_normalize = self.model.get_vec_normalize_env()
-
-        def act(obs: np.ndarray) -> np.ndarray:
-            if vec_normalize is not None:  # what the student sees in training
-                obs = vec_normalize.normalize_obs(obs)
-            return self.model.predict(obs, deterministic=self.deterministic)[0]
-
-        seed = 10_000 + int(self.model.seed) if self.seed is None else self.seed
-        returns = episode_returns(act, [self.eval_env], self.n_eval_episodes, seed)
+        returns = self._returns()
         mean, std = float(returns.mean()), float(returns.std())
         self.evaluations.append((steps, mean, std))
         self.logger.record("eval/student_alone_mean", mean)
@@ -149,10 +143,56 @@ class StudentEvalCallback(BaseCallback):
         if self.verbose:
             print(f"step {steps}: student alone {mean:.3f} +- {std:.3f} ({len(returns)} episodes)")
 
+    def _returns(self) -> np.ndarray:
+        """The student's returns on ``n_eval_episodes`` episodes of the evaluation
+        environment, on the observations it sees in training."""
+        vec_normalize = self.model.get_vec_normalize_env()
+        if isinstance(self.eval_env, VecEnv) and unwrap_vec_normalize(self.eval_env) is not None:
+            if vec_normalize is not None:  # its statistics, as EvalCallback syncs them
+                sync_envs_normalization(self.model.get_env(), self.eval_env)
+            vec_normalize = None  # the evaluation environment normalises its observations
 
-def _one_env(env: Any) -> gym.Env:
-    """The evaluation environment of :class:`StudentEvalCallback`: a Gymnasium env as given,
-    or made from a Gymnasium id or a domain name."""
+        def act(obs: Any) -> np.ndarray:
+            if vec_normalize is not None:  # what the student sees in training
+                obs = vec_normalize.normalize_obs(obs)
+            return self.model.predict(obs, deterministic=self.deterministic)[0]
+
+        seed = 10_000 + int(self.model.seed) if self.seed is None else self.seed
+        if isinstance(self.eval_env, VecEnv):
+            return vec_episode_returns(act, self.eval_env, self.n_eval_episodes, seed)
+        return episode_returns(act, [self.eval_env], self.n_eval_episodes, seed)
+
+
+def vec_episode_returns(act: Any, venv: VecEnv, episodes: int, seed: int) -> np.ndarray:
+    """:func:`episode_returns` on an SB3 ``VecEnv`` (seeded ``seed + i`` per environment, then
+    reset), as SB3's ``evaluate_policy`` counts them: environment ``i`` plays
+    ``(episodes + i) // num_envs`` episodes, so that short episodes do not crowd out long ones.
+    An episode's return is its ``Monitor`` record where the environment has one, else the sum
+    of its rewards (before a ``VecNormalize`` scaled them)."""
+    n = venv.num_envs
+    targets = np.array([(episodes + i) // n for i in range(n)])
+    counts, running = np.zeros(n, dtype=int), np.zeros(n)
+    vec_normalize = unwrap_vec_normalize(venv)
+    returns: list[float] = []
+    venv.seed(seed)
+    obs = venv.reset()
+    while (counts < targets).any():
+        obs, rewards, dones, infos = venv.step(np.asarray(act(obs)))
+        if vec_normalize is not None:
+            rewards = vec_normalize.get_original_reward()
+        running += rewards
+        for i in np.flatnonzero(dones):
+            if counts[i] < targets[i]:
+                episode = infos[i].get("episode")
+                returns.append(float(running[i] if episode is None else episode["r"]))
+                counts[i] += 1
+            running[i] = 0.0
+    return np.asarray(returns, dtype=np.float64)
+
+
+def _one_env(env: Any) -> gym.Env | VecEnv:
+    """The evaluation environment of :class:`StudentEvalCallback`: a Gymnasium env or an SB3
+    VecEnv as given, or made from a Gymnasium id or a domain name."""
     if isinstance(env, str) and env in domain_names():
         return get_domain(env).make_env()
     if isinstance(env, str) and env in gym.registry:
@@ -162,11 +202,9 @@ def _one_env(env: Any) -> gym.Env:
             f"StudentEvalCallback: unknown environment {env!r}; expected a Gymnasium id or a "
             f"domain name ({', '.join(domain_names())})"
         )
-    if not isinstance(env, gym.Env):
-        kind = "an SB3 VecEnv" if isinstance(env, VecEnv) else type(env).__name__
+    if not isinstance(env, gym.Env | VecEnv):
         raise ConfigError(
-            f"StudentEvalCallback: eval_env must be a gymnasium.Env, a Gymnasium id or a domain "
-            f"name, got {kind} (the student is evaluated on the environment's own observations; "
-            "under the model's VecNormalize they are normalised with its statistics)"
+            "StudentEvalCallback: eval_env must be a gymnasium.Env, an SB3 VecEnv, a Gymnasium "
+            f"id or a domain name, got {type(env).__name__}"
         )
     return env

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 import torch
 import yaml
@@ -29,12 +30,20 @@ from filelock import FileLock, Timeout
 
 from tlac.algorithms import NO_ADVICE, get_algorithm
 from tlac.algorithms.common import check_seed, safe_torch_load
-from tlac.domains import Domain, get_domain, make_teachers, make_vec_env, parse_teacher_spec
+from tlac.domains import (
+    Domain,
+    get_domain,
+    is_gym_domain,
+    make_teachers,
+    make_vec_env,
+    parse_teacher_spec,
+)
 from tlac.errors import ConfigError, StorageError, UnknownNameError, read_yaml_file
 from tlac.evaluation import evaluate_student
 from tlac.presets import SCHEDULE_HORIZON, load_preset, stretch_schedules
 from tlac.recording import MONITOR_FILE, Recorder, platform_record
 from tlac.selectors import SELECTOR_NAMES
+from tlac.teachers.files import check_teacher_files
 
 SELECTORS = SELECTOR_NAMES  # the high levels a run may use (tlac.selectors)
 RESULT_FILE = "result.json"
@@ -151,6 +160,13 @@ class RunSpec:
             )
         for name in self.resolved_teachers(domain):
             parse_teacher_spec(domain, name)
+        if is_gym_domain(domain) and self.algo not in NO_ADVICE and not self.teachers:
+            raise ConfigError(
+                f"{self.env!r} is a Gymnasium id, with no teachers of its own: give --teachers "
+                "path/to/file.py:NAME (a function of one observation, an object with predict or "
+                "an SB3 model), path/to/agent.zip (an SB3 / rl-zoo agent, with --trust-pickle) "
+                "or random, comma-separated"
+            )
         return domain
 
 
@@ -320,7 +336,8 @@ def _names_domain(env: Any, name: str) -> bool:
     if env == name:
         return True
     try:
-        return isinstance(env, str) and ":" in env and get_domain(env).name == name
+        named = isinstance(env, str) and (":" in env or env in gym.registry)
+        return named and get_domain(env).name == name
     except ConfigError:
         return False
 
@@ -341,6 +358,7 @@ def train_run(
     replace: bool = True,
     checkpoint_every: int | None = CHECKPOINT_EVERY,
     fresh: bool = False,
+    trust_pickle: bool = False,
 ) -> dict[str, Any]:
     """Train one run described by ``spec`` and write its run folder; returns ``result.json``'s
     content. Every setting is checked before anything is written. An unfinished run of the
@@ -351,8 +369,10 @@ def train_run(
     writes it. ``on_eval(timestep, student_alone_mean, training_return)`` is called after
     every evaluation of the student alone (``training_return``: mean of the recent training
     episodes, teachers included, or ``None`` before the first episode ends). ``fresh``: never
-    continue from a checkpoint (``tlac train --force``)."""
+    continue from a checkpoint (``tlac train --force``). ``trust_pickle``: open the SB3
+    agents named as teachers (``--trust-pickle``; tlac.teachers.files)."""
     domain = spec.validate()
+    check_teacher_files(spec.resolved_teachers(domain), trust_pickle)
     hp = hyperparameters(spec)
     check = getattr(get_algorithm(spec.algo), "check_hyperparameters", None)
     if check is not None:  # optional in the algorithm contract (docs/architecture.md)
@@ -374,7 +394,7 @@ def train_run(
         ):
             meta = None if fresh else _resumable(out, spec, domain)
             return _train_locked(
-                spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, meta=meta
+                spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, meta, trust_pickle
             )
     except ConfigError:  # refused when the model was built (its memory): leave no folder
         if created and not (out / CHECKPOINT).exists():
@@ -387,6 +407,7 @@ def resume_run(
     progress_bar: bool = False,
     on_eval: Any = None,
     checkpoint_every: int | None = CHECKPOINT_EVERY,
+    trust_pickle: bool = False,
 ) -> dict[str, Any]:
     """Continue the unfinished run in ``run_dir`` from its last checkpoint (``tlac train
     --resume``). With TL-AC, DQN-TLQL and AC-Teach the continuation is exact: the run files end byte-identical to an
@@ -419,12 +440,13 @@ def resume_run(
         check_in_process(hp)
     except ConfigError as exc:  # config.yaml edited by hand: say which file
         raise ConfigError(f"{str(out / 'config.yaml')!r}: {exc}") from None
+    check_teacher_files(spec.resolved_teachers(domain), trust_pickle)
     with (
         storage_errors(out, spec.algo),
         folder_lock(out / LOCK_FILE, f"{str(out)!r} is in use by another tlac process"),
     ):
         return _train_locked(
-            spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, meta=meta
+            spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, meta, trust_pickle
         )
 
 
@@ -520,9 +542,10 @@ def _train_locked(
     on_eval: Any,
     checkpoint_every: int | None = None,
     meta: dict[str, Any] | None = None,
+    trust_pickle: bool = False,
 ) -> dict[str, Any]:
     """The run itself, the folder locked; ``meta``: the run state of the checkpoint to
-    continue from (None: from scratch)."""
+    continue from (None: from scratch); ``trust_pickle``: open agents named as teachers."""
     resume = meta is not None
     if meta is not None:
         for name in ("episodes.csv", "eval.csv", "progress.csv", "teacher_usage.csv"):
@@ -538,7 +561,8 @@ def _train_locked(
     torch.manual_seed(spec.seed)
     np.random.seed(spec.seed)
     probe_env = domain.make_env()
-    teachers = make_teachers(domain, spec.resolved_teachers(domain), probe_env, spec.seed)
+    names = spec.resolved_teachers(domain)
+    teachers = make_teachers(domain, names, probe_env, spec.seed, trust_pickle)
     venv = make_vec_env(domain, n_envs, spec.seed, out / "episodes.csv")
     recorder = Recorder(
         out,

@@ -2,6 +2,7 @@
 
     tlac train                      # TL-AC on DoorKey with optimal + 2 random teachers
     tlac train --env doorkey --teachers optimal,random,random --steps 50000 --seed 0 --out runs/demo
+    tlac train --env CartPole-v1 --teachers my_teachers.py:pd,agents/ppo.zip --trust-pickle
     tlac eval runs/demo --episodes 100 [--with-teachers] [--json]
     tlac envs                       # domains, their teachers and regions
     tlac teacher train|eval ...     # SAC teachers; measure any teacher
@@ -65,6 +66,7 @@ def _numbers_from_text(value: Any) -> Any:
 def _cmd_train(args: argparse.Namespace) -> int:
     from tlac.algorithms import NO_ADVICE
     from tlac.run import RunSpec, load_run_config, resume_run, train_run
+    from tlac.teachers.files import check_teacher_files
 
     if args.resume is not None:
         config = load_run_config(args.resume)
@@ -73,6 +75,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
             args.resume,
             progress_bar=not args.no_progress,
             checkpoint_every=args.checkpoint_every,
+            trust_pickle=args.trust_pickle,
         )
         _print_result(result, int(config.get("eval_episodes", 0)), Path(args.resume))
         return 0
@@ -104,6 +107,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
         keep_best=args.eval_every is not None and not args.keep_last,
     )
     domain = spec.validate()
+    check_teacher_files(spec.resolved_teachers(domain), args.trust_pickle)
     if args.out is not None and not args.out.strip():
         raise ConfigError("--out '' names no folder; expected the run folder's path")
     # domain.name, not spec.env: a domain given as path/to/file.py:ATTR must not become a path
@@ -135,6 +139,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
         replace=args.force,
         checkpoint_every=args.checkpoint_every,
         fresh=args.force,
+        trust_pickle=args.trust_pickle,
     )
     _print_result(result, spec.eval_episodes, out)
     return 0
@@ -175,6 +180,7 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     from tlac.evaluation import evaluate_policy
     from tlac.experiments.config import domain_file
     from tlac.run import load_run_config, load_run_model
+    from tlac.teachers.files import check_teacher_files
     from tlac.teachers.sb3 import check_trust_pickle
 
     config = load_run_config(args.run_dir)
@@ -183,13 +189,17 @@ def _cmd_eval(args: argparse.Namespace) -> int:
         raise ConfigError(
             f"{str(run)!r} has no trained model (model.pt / model.zip): the run did not finish"
         )
-    if isinstance(config["env"], str) and domain_file(config["env"]) is not None:
+    if domain_file(config["env"]) is not None and not args.trust_code:
         raise ConfigError(
-            f"{str(run)!r} was trained on the domain file {config['env']!r}: tlac eval imports "
-            "no domain file (importing one runs its code; only training commands do); "
-            "evaluate it from Python, where you import the domain yourself "
-            "(tlac.evaluation.evaluate_policy)"
+            f"{str(run)!r} was trained on the domain file {config['env']!r}: importing it runs "
+            "its code, so tlac eval imports it only when told to; pass --trust-code if you "
+            "trust the file (one you wrote)"
         )
+    kinds = (config.get("teacher_kinds") or []) if args.with_teachers else []
+    if not isinstance(kinds, list) or not all(isinstance(k, str) for k in kinds):
+        raise ConfigError(f"{str(run / 'config.yaml')!r}: teacher_kinds must be a list of names")
+    _check_teacher_code(kinds, args.trust_code)
+    check_teacher_files(kinds, args.trust_pickle)
     if not (run / "model.pt").exists():  # an SB3 baseline's model.zip: a pickle
         check_trust_pickle(run / "model.zip", args.trust_pickle, "--trust-pickle")
     domain = get_domain(config["env"])
@@ -215,7 +225,6 @@ def _cmd_eval(args: argparse.Namespace) -> int:
         "student_std": float(np.std(returns)),
     }
     if args.with_teachers:
-        kinds = config.get("teacher_kinds") or []
         if not kinds:
             raise ConfigError(f"{str(run)!r} was trained without teachers; drop --with-teachers")
         if not hasattr(model, "predict_with_teachers"):
@@ -223,7 +232,7 @@ def _cmd_eval(args: argparse.Namespace) -> int:
                 f"algorithm {config['algo']!r} cannot act with its teachers outside training"
             )
         probe = domain.make_env()
-        model.teachers = make_teachers(domain, kinds, probe, config["seed"])
+        model.teachers = make_teachers(domain, kinds, probe, config["seed"], args.trust_pickle)
         with_teachers = evaluate_policy(
             lambda o: model.predict_with_teachers(o), domain, args.episodes, seed
         )
@@ -245,6 +254,20 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_teacher_code(kinds: list[str], trust_code: bool) -> None:
+    """ConfigError for a teacher named by a Python file, which ``tlac eval --with-teachers``
+    imports (running its code) only with ``--trust-code``."""
+    from tlac.teachers.files import teacher_file
+
+    for kind in kinds:
+        found = teacher_file(kind)
+        if found is not None and found.kind == "python" and not trust_code:
+            raise ConfigError(
+                f"teacher {kind!r} is a Python file: importing it runs its code, so tlac eval "
+                "imports it only when told to; pass --trust-code if you trust the file"
+            )
+
+
 def _cmd_envs(args: argparse.Namespace) -> int:
     from tlac.domains import domain_names, get_domain
 
@@ -260,9 +283,10 @@ def _cmd_envs(args: argparse.Namespace) -> int:
         )
     print(
         "\nAny registered Gymnasium id (CartPole-v1, ...) works from Python: "
-        "TLAC('CartPole-v1', teachers=[...]).\nOn the command line, name a domain file that "
-        "makes it and its teachers: tlac train --env path/to/file.py:DOMAIN "
-        "(examples/my_domain.py)."
+        "TLAC('CartPole-v1', teachers=[...]);\non the command line with teachers from files: "
+        "tlac train --env CartPole-v1 --teachers path/to/file.py:NAME,path/to/agent.zip "
+        "--trust-pickle,\nor a domain file that makes it and names its teachers: tlac train "
+        "--env path/to/file.py:DOMAIN (examples/my_domain.py)."
     )
     return 0
 
@@ -283,8 +307,8 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument(
         "--env",
         default="doorkey",
-        help="domain (see `tlac envs`; default doorkey), or a domain file path/to/file.py:DOMAIN "
-        "(a Gymnasium id goes in one: examples/my_domain.py)",
+        help="domain (see `tlac envs`; default doorkey), a domain file path/to/file.py:DOMAIN "
+        "(examples/my_domain.py), or a registered Gymnasium id (CartPole-v1) with --teachers",
     )
     train.add_argument(
         "--algo", default="tlac", choices=algorithm_names(), help="algorithm (default tlac)"
@@ -293,7 +317,10 @@ def build_parser() -> argparse.ArgumentParser:
         "--teachers",
         default=None,
         help="comma-separated teacher names of the domain (default: the domain's "
-        "default set); NAME:P mixes NAME with random actions, P = P(NAME's action)",
+        "default set), or teachers from files: path/to/file.py:NAME (a function of one "
+        "observation, an object with predict, an SB3 model), path/to/agent.zip or an rl-zoo run "
+        "folder (SB3 agents: with --trust-pickle); NAME:P mixes NAME with random actions, "
+        "P = P(NAME's action)",
     )
     train.add_argument(
         "--steps", type=positive_int, default=50_000, help="environment steps (default 50000)"
@@ -343,6 +370,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     train.add_argument("--no-progress", action="store_true", help="no progress bar")
     train.add_argument(
+        "--trust-pickle",
+        action="store_true",
+        help="open the SB3 agents given as --teachers (.zip, vecnormalize.pkl): their pickles "
+        "can run code when loaded, so only files you trust",
+    )
+    train.add_argument(
         "--resume",
         metavar="RUN",
         default=None,
@@ -385,8 +418,15 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument(
         "--trust-pickle",
         action="store_true",
-        help="open an SB3 baseline's model.zip (A2C, PPO): its pickles can run code when "
-        "loaded, so only for a run you trust",
+        help="open an SB3 baseline's model.zip (A2C, PPO), or with --with-teachers the SB3 "
+        "agents the run names as teachers: their pickles can run code when loaded, so only "
+        "for a run you trust",
+    )
+    ev.add_argument(
+        "--trust-code",
+        action="store_true",
+        help="import the run's domain file (path/to/file.py:DOMAIN), or with --with-teachers "
+        "its teachers' Python files: importing them runs their code, so only files you trust",
     )
     ev.set_defaults(func=_cmd_eval)
 

@@ -33,7 +33,8 @@ from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 from tlac.errors import ConfigError, UnknownNameError
 from tlac.recording import EpisodeRecorder
 from tlac.teachers.base import NamedTeacher, Teacher, unique_names
-from tlac.teachers.wrappers import MixedRandomTeacher
+from tlac.teachers.files import load_teacher_file, teacher_file
+from tlac.teachers.wrappers import MixedRandomTeacher, RandomTeacher
 
 
 @dataclass(frozen=True)
@@ -239,19 +240,52 @@ def _import_failure(exc: Exception) -> str:
 
 
 def gym_id_hint(env_id: str) -> str:
-    """What to do with a Gymnasium id where a domain is expected (``tlac train --env``)."""
+    """What to do with a Gymnasium id where a domain is expected (an experiment config)."""
     return (
         f"{env_id!r} is a Gymnasium id, not a tlac domain ({', '.join(domain_names())}): "
-        f"from Python TLAC({env_id!r}, teachers=[...]) takes it; tlac train and experiment "
-        "configs take a domain file that makes it and names its teachers, --env "
-        "path/to/file.py:DOMAIN (examples/my_domain.py is one for CartPole-v1)"
+        f"from Python TLAC({env_id!r}, teachers=[...]) and tlac train --env {env_id} "
+        "--teachers path/to/file.py:NAME take it; experiment configs take a domain file that "
+        "makes it and names its teachers, path/to/file.py:DOMAIN (examples/my_domain.py is one "
+        "for CartPole-v1)"
     )
 
 
+_GYM_DOMAINS: dict[str, Domain] = {}
+
+
+def gym_domain(env_id: str) -> Domain:
+    """A registered Gymnasium id as ``tlac train`` and ``tlac eval`` use it: its environment
+    made by ``gym.make``, ``random`` its only teacher by name (the others are named by file:
+    tlac.teachers.files), ``presets/default.yaml``'s settings (as ``TLAC(env_id)``), and no
+    default teachers (tlac cannot guess any)."""
+    if env_id not in _GYM_DOMAINS:
+        spec = gym.spec(env_id)
+        _GYM_DOMAINS[env_id] = Domain(
+            name=env_id.replace("/", "_"),  # it names run folders
+            description=f"the Gymnasium id {env_id}",
+            make_env=functools.partial(gym.make, env_id),
+            teacher_names=("random",),
+            make_teacher=_random_teacher,
+            presets={algo: "default" for algo in DEFAULT_PRESET_ALGOS},
+            default_teachers=(),
+            max_episode_steps=spec.max_episode_steps,
+        )
+    return _GYM_DOMAINS[env_id]
+
+
+def is_gym_domain(domain: Domain) -> bool:
+    """Whether ``domain`` is a Gymnasium id's (:func:`gym_domain`)."""
+    return any(domain is d for d in _GYM_DOMAINS.values())
+
+
+def _random_teacher(name: str, env: gym.Env, seed: int) -> Teacher:
+    return RandomTeacher(env.action_space, seed, name=name)
+
+
 def get_domain(name: str) -> Domain:
-    """Look up a domain: a built-in or registered name, or ``"module:attribute"`` /
-    ``"path/to/file.py:attribute"`` naming a Domain object; raises :class:`UnknownNameError` listing the
-    accepted names."""
+    """Look up a domain: a built-in or registered name, ``"module:attribute"`` /
+    ``"path/to/file.py:attribute"`` naming a Domain object, or a registered Gymnasium id
+    (:func:`gym_domain`); raises :class:`UnknownNameError` listing the accepted names."""
     if not isinstance(name, str):
         raise UnknownNameError("environment", repr(name), domain_names())
     if name in _USER_DOMAINS or name in _IMPORTED:
@@ -259,7 +293,7 @@ def get_domain(name: str) -> Domain:
     if name not in _DOMAINS and ":" in name:
         return _import_domain(name)
     if name not in _DOMAINS and name in gym.registry:
-        raise ConfigError(gym_id_hint(name))
+        return gym_domain(name)
     if name not in _DOMAINS:
         raise UnknownNameError("environment", name, domain_names())
     module_name, attr = _DOMAINS[name].split(":")
@@ -277,10 +311,20 @@ def get_domain(name: str) -> Domain:
 def parse_teacher_spec(domain: Domain, spec: str) -> tuple[str, float | None]:
     """``"good"`` -> ``("good", None)``; ``"optimal:0.7"`` -> ``("optimal", 0.7)``: the named
     teacher's action with probability 0.7, a uniformly random action otherwise (the paper's
-    good / noisy construction, appendix A.1.1, with any probability)."""
-    name, colon, prob_text = spec.partition(":")
-    if name not in domain.teacher_names:
-        raise UnknownNameError(f"teacher for {domain.name}", name, domain.teacher_names)
+    good / noisy construction, appendix A.1.1, with any probability). A teacher named by file
+    (``path/to/file.py:NAME``, ``agent.zip``, an rl-zoo folder: tlac.teachers.files), with any
+    domain, gives the file's spec without its ``:P``."""
+    found = teacher_file(spec)
+    if found is not None:
+        name, colon, prob_text = found.source(), found.prob is not None, found.prob or ""
+    else:
+        name, colon, prob_text = spec.partition(":")  # type: ignore[assignment]
+    if found is None and name not in domain.teacher_names:
+        raise UnknownNameError(
+            f"teacher for {domain.name}",
+            name,
+            [*domain.teacher_names, "path/to/file.py:NAME", "path/to/agent.zip"],
+        )
     if not colon:
         return name, None
     try:
@@ -294,21 +338,37 @@ def parse_teacher_spec(domain: Domain, spec: str) -> tuple[str, float | None]:
     return name, prob
 
 
-def make_teachers(domain: Domain, names: list[str], env: gym.Env, seed: int) -> list[Teacher]:
+def make_teachers(
+    domain: Domain, names: list[str], env: gym.Env, seed: int, trust_pickle: bool = False
+) -> list[Teacher]:
     """Build the named teachers of ``domain`` (``NAME`` or ``NAME:P``, see
-    :func:`parse_teacher_spec`); duplicates get distinct seeds and names."""
+    :func:`parse_teacher_spec`; or named by file, an agent's pickles opened only with
+    ``trust_pickle``); duplicates get distinct seeds and names."""
     parsed = [parse_teacher_spec(domain, n) for n in names]
-    labels = unique_names(list(names))
+    labels = unique_names([_teacher_label(n) for n in names])
     teachers: list[Teacher] = []
     for i, ((name, prob), label) in enumerate(zip(parsed, labels, strict=True)):
         teacher_seed = seed + 1000 * (i + 1)
-        teacher = domain.make_teacher(name, env, teacher_seed)
+        found = teacher_file(name)
+        if found is None:
+            teacher = domain.make_teacher(name, env, teacher_seed)
+        else:
+            teacher = load_teacher_file(found, env, trust_pickle)
         if prob is not None:
             teacher = MixedRandomTeacher(
                 teacher, prob, env.action_space, teacher_seed + 1, name=label
             )
         teachers.append(NamedTeacher(teacher, label))
     return teachers
+
+
+def _teacher_label(spec: str) -> str:
+    """A teacher's name in logs: a domain's spec as it is, a file's its object's or agent's
+    name (with its ``:P``)."""
+    found = teacher_file(spec)
+    if found is None:
+        return spec
+    return found.label() + ("" if found.prob is None else f":{found.prob}")
 
 
 def make_vec_env(
