@@ -15,7 +15,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("tlac.errors", "tlac.argtypes", "tlac.presets", "tlac.validation", "tlac.memory"),
     ("tlac.teachers",),  # generic: base, wrappers, the shipped-policy teachers (sac, ppo)
     ("tlac.recording",),
-    ("tlac.domains",),
+    ("tlac.domains", "tlac.gym_ids"),
     ("tlac.algorithms", "tlac.selectors"),
     ("tlac.evaluation", "tlac.run", "tlac.teachers.measure", "tlac.teachers.training"),
     ("tlac.experiments",),

@@ -29,15 +29,15 @@ if TYPE_CHECKING:
     from tlac.evaluation import StudentEvalCallback
 
 
-def __getattr__(name: str) -> Any:  # lazy: `import tlac` stays cheap for the CLI
+def __getattr__(name: str) -> Any:  # lazy: `import tlac` imports neither torch nor SB3
     if name in ("TLAC", "TLACConfig"):
         from tlac.algorithms import two_level
 
         return getattr(two_level, name)
     if name in ("Domain", "register_domain"):
-        from tlac import envs
+        from tlac import domains
 
-        return getattr(envs, name)
+        return getattr(domains, name)
     if name == "StudentEvalCallback":
         from tlac.evaluation import StudentEvalCallback
 
@@ -45,9 +45,14 @@ def __getattr__(name: str) -> Any:  # lazy: `import tlac` stays cheap for the CL
     raise AttributeError(f"module 'tlac' has no attribute {name!r}")
 
 
+def __dir__() -> list[str]:  # the lazy names too (tab completion)
+    return sorted({*globals(), *__all__})
+
+
 def _register_gym_ids() -> None:
-    """``gym.make("tlac/DoorKey-v0")`` and the other domains' ids work after ``import tlac``."""
-    from tlac.domains import register_gym_ids
+    """``gym.make("tlac/DoorKey-v0")`` and the other domains' ids work after ``import tlac``;
+    registered by entry-point strings, so no domain is imported until an id is made."""
+    from tlac.gym_ids import register_gym_ids
 
     register_gym_ids()
 

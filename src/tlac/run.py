@@ -554,7 +554,10 @@ def _train_locked(
     else:
         meta = {}
         _clear_run_folder(out)
-    n_envs = int(hp.pop("n_envs", 1))
+    # the model is told n_envs too (it checks the VecEnv against it), so that its settings,
+    # written below, record the environments it ran with
+    n_envs = int(hp.get("n_envs", 1))
+    hp = {"n_envs": n_envs, **{k: v for k, v in hp.items() if k != "n_envs"}}
 
     # small networks: one thread is fastest, and parallel runs must not oversubscribe cores
     torch.set_num_threads(1)
@@ -578,7 +581,7 @@ def _train_locked(
             "teachers": [t.name for t in teachers],
             "teacher_kinds": spec.resolved_teachers(domain),
             "preset": spec.resolved_preset(),
-            "hyperparameters": {"n_envs": n_envs, **hp},
+            "hyperparameters": hp,
         }
         (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
 

@@ -31,6 +31,7 @@ import numpy as np
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
 from tlac.errors import ConfigError, UnknownNameError
+from tlac.gym_ids import GYM_IDS, register_gym_ids  # noqa: F401  (their former home)
 from tlac.recording import EpisodeRecorder
 from tlac.teachers.base import NamedTeacher, Teacher, unique_names
 from tlac.teachers.files import load_teacher_file, teacher_file
@@ -76,30 +77,12 @@ _DOMAINS: dict[str, str] = {
 }
 
 
-# Gymnasium ids of the built-in domains: id -> ("module:factory", its episodes' step limit);
-# the factories are imported only by gym.make and take render_mode
-GYM_IDS: dict[str, tuple[str, int]] = {
-    "tlac/DoorKey-v0": ("tlac.domains.doorkey.env:make_doorkey_env", 490),  # MiniGrid's 10 * 7**2
-    "tlac/DoorKeyPartial-v0": ("tlac.domains.doorkey.env:make_partial_doorkey_env", 490),
-    "tlac/HopperBullet-v0": ("tlac.domains.hopper.env:make_bullet_env", 1000),
-    "tlac/Hopper-v0": ("tlac.domains.hopper.env:make_mujoco_env", 1000),
-    "tlac/PickPlace-v0": ("tlac.domains.pickplace.env:make_env", 100),
-}
-
 DEFAULT_PRESET_ALGOS = ("tlac", "ppo", "a2c", "dqn-tlql", "ac-teach")
 """The algorithms that ``presets/default.yaml`` sets for a user's domain without its own."""
 
 # domains added with register_domain, by name; and those named "module:attribute", by that
 _USER_DOMAINS: dict[str, Domain] = {}
 _IMPORTED: dict[str, Domain] = {}
-
-
-def register_gym_ids() -> None:
-    """Register every built-in domain with Gymnasium (``gym.make("tlac/DoorKey-v0")``); done
-    by ``import tlac``. The factories are imported only when an id is made."""
-    for env_id, (entry_point, max_episode_steps) in GYM_IDS.items():
-        if env_id not in gym.registry:
-            gym.register(id=env_id, entry_point=entry_point, max_episode_steps=max_episode_steps)
 
 
 def register_domain(domain: Domain, replace: bool = False) -> Domain:
