@@ -439,6 +439,12 @@ def test_an_environment_off_gymnasiums_api_is_one_error(env_cls, fragment):
     assert fragment in str(info.value)
 
 
+PAST_AUDITION = {"CartPole-v1": 400, "Pendulum-v1": 1100}
+"""Steps after which a default TL-AC run has asked its teacher: the first 5 episodes are the
+student's alone (SoloEpisodes.auditioning; CartPole's untrained ones last ~20 steps,
+Pendulum's 200), then the teacher leads one."""
+
+
 @pytest.mark.parametrize(
     ("action", "fragment"),
     [
@@ -455,7 +461,7 @@ def test_a_teacher_returning_garbage_is_one_error(action, fragment):
         gym.make("CartPole-v1"), teachers=[lambda obs: action], seed=0, n_steps=16, batch_size=16
     )
     with pytest.raises(TeacherError) as info:
-        model.learn(16, progress_bar=False)
+        model.learn(PAST_AUDITION["CartPole-v1"], progress_bar=False)
     assert fragment in str(info.value)
 
 
@@ -487,7 +493,7 @@ def test_a_batched_teacher_returning_no_numbers_is_one_error(env_id, make, fragm
     shaped = (lambda n: np.asarray(make(n)).reshape(n, 1)) if box else make
     model = TLAC(env, teachers=[_Batched(shaped)], seed=0, n_steps=16, batch_size=16)
     with pytest.raises(TeacherError) as info:
-        model.learn(16, progress_bar=False)
+        model.learn(PAST_AUDITION[env_id], progress_bar=False)
     assert f"teacher 'batched' {fragment}" in str(info.value)
     assert f"expected numbers, actions of {env.action_space}" in str(info.value)
 
