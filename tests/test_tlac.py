@@ -188,7 +188,17 @@ def test_bad_teacher_actions_stop_training_naming_the_teacher(advice, match):
     env = get_domain("doorkey").make_env()
     bad = lambda obs: advice(obs)  # noqa: E731
     bad.__name__ = "my_teacher"
-    model = TLAC(env, teachers=[bad], selector="random", seed=0, n_steps=16, batch_size=16)
+    # (teacher_episodes 0: no audition, the teacher is asked from the first step; under the
+    # default's audition it is first asked after the student's first 5 episodes)
+    model = TLAC(
+        env,
+        teachers=[bad],
+        selector="random",
+        seed=0,
+        n_steps=16,
+        batch_size=16,
+        teacher_episodes=0,
+    )
     with pytest.raises(TeacherError, match=f"my_teacher.*{match}|{match}.*my_teacher"):
         model.learn(64, progress_bar=False)
 
@@ -201,6 +211,7 @@ def test_box_teacher_outside_the_box_is_an_error_not_clipped():
         seed=0,
         n_steps=8,
         batch_size=8,
+        teacher_episodes=0,  # (no audition: asked from the first step)
     )
     with pytest.raises(TeacherError, match="outside the action box"):
         model.learn(32, progress_bar=False)
