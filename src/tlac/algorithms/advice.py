@@ -221,7 +221,8 @@ class AdviceLedger:
         self.remaining = self.budget
         self.rule, self.threshold = rule, threshold
         n_teachers = len(self.costs)
-        self.present = np.ones((n_envs, n_teachers), dtype=bool)
+        # until an environment's first episode draws it, only an always-present teacher is
+        self.present = np.tile(self.availability >= 1, (n_envs, 1))
         self.answers = np.zeros(n_teachers, dtype=np.int64)
         self.acted = np.zeros(n_teachers, dtype=np.int64)
         self.labels = np.zeros(n_teachers, dtype=np.int64)
