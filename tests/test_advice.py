@@ -222,8 +222,8 @@ def test_a_teacher_spec_sets_cost_and_availability():
     model = _cartpole(
         [TeacherSpec(pd, name="pd", cost=2.0, availability=0.5), other], advice_budget=10
     )
-    assert model.config.teacher_cost == {"pd": 2.0}
-    assert model.config.availability == {"pd": 0.5}
+    assert model.config.advice.teacher_cost == {"pd": 2.0}
+    assert model.config.advice.availability == {"pd": 0.5}
     assert model.advice.costs.tolist() == [2.0, 1.0]
     with pytest.raises(ConfigError, match="give it once"):
         _cartpole([TeacherSpec(pd, name="pd", cost=2.0)], teacher_cost={"pd": 3.0})
@@ -301,3 +301,26 @@ def test_cli_bad_advice_flags_exit_2_with_one_line(tmp_path, capsys, flags, mess
     assert main([*argv, "--no-progress"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and message in err
+
+
+def test_an_interrupted_run_resumes_its_budget_exactly(tmp_path):
+    """The ledger (budget left, presence, its random stream, the counts) and the labels the
+    buffer holds travel in a training-state checkpoint: interrupted and resumed equals
+    uninterrupted."""
+    settings = {
+        "seed": 3,
+        "n_steps": 8,
+        "batch_size": 8,
+        "advice_budget": 100,
+        "availability": {"optimal": 0.5},
+    }
+    whole = TLAC("doorkey", teachers=["optimal", "random"], **settings).learn(160)
+    half = TLAC("doorkey", teachers=["optimal", "random"], **settings).learn(80)
+    half.save(tmp_path / "half.pt", training_state=True)
+    resumed = TLAC.load(
+        tmp_path / "half.pt", env="doorkey", teachers=["optimal", "random"], resume=True
+    )
+    resumed.learn(80, reset_num_timesteps=False)
+    assert _digest(resumed) == _digest(whole)
+    assert resumed.advice.answers.tolist() == whole.advice.answers.tolist()
+    assert resumed.advice.spent == whole.advice.spent <= 100

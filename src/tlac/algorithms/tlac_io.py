@@ -166,7 +166,8 @@ def with_teacher_terms(config: TLACConfig, teachers: Any, names: list[str]) -> T
         teachers = [teachers]
     if not isinstance(teachers, Sequence) or isinstance(teachers, str):
         return config
-    costs, chances = dict(config.teacher_cost), dict(config.availability)
+    terms = config.advice
+    costs, chances = dict(terms.teacher_cost), dict(terms.availability)
     for teacher, name in zip(teachers, names, strict=False):
         if not isinstance(teacher, TeacherSpec):
             continue
@@ -181,9 +182,10 @@ def with_teacher_terms(config: TLACConfig, teachers: Any, names: list[str]) -> T
                 )
             if value != default:
                 values[name] = value
-    if (costs, chances) == (config.teacher_cost, config.availability):
+    if (costs, chances) == (terms.teacher_cost, terms.availability):
         return config
-    return dataclasses.replace(config, teacher_cost=costs, availability=chances)
+    terms = dataclasses.replace(terms, teacher_cost=costs, availability=chances)
+    return dataclasses.replace(config, advice=terms)
 
 
 def is_sb3_zip(path: Path) -> bool:

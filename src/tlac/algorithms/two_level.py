@@ -203,21 +203,22 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         # advice as it costs (tlac.algorithms.advice): answers are counted whenever there are
         # teachers; limited (a budget, availability, an asking rule) only where the settings say
         self.advice: AdviceLedger | None = None
-        self.limited_advice = cfg.limits_advice and self.n_teachers > 0
-        if self.n_teachers or cfg.teacher_cost or cfg.availability:
-            if cfg.ask in ("importance", "uncertainty") and not self.discrete:
+        terms = cfg.advice
+        self.limited_advice = terms.limits and self.n_teachers > 0
+        if self.n_teachers or terms.teacher_cost or terms.availability:
+            if terms.ask in ("importance", "uncertainty") and not self.discrete:
                 raise ConfigError(
-                    f"TL-AC setting ask {cfg.ask!r} reads the student's action logits and needs "
-                    "discrete actions; use always or early with Box actions"
+                    f"TL-AC setting ask {terms.ask!r} reads the student's action logits and "
+                    "needs discrete actions; use always or early with Box actions"
                 )
             self.advice = AdviceLedger(
-                per_teacher(cfg.teacher_cost, self.teacher_names, "teacher_cost", 1.0),
-                per_teacher(cfg.availability, self.teacher_names, "availability", 1.0),
-                cfg.advice_budget,
+                per_teacher(terms.teacher_cost, self.teacher_names, "teacher_cost", 1.0),
+                per_teacher(terms.availability, self.teacher_names, "availability", 1.0),
+                terms.advice_budget,
                 self.n_envs,
                 self.seed,
-                cfg.ask,
-                cfg.ask_threshold,
+                terms.ask,
+                terms.ask_threshold,
             )
         self.advice_buffer: AdviceBuffer | None = None
         if self.n_teachers and cfg.distill_coef != 0:
@@ -304,7 +305,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 choices = self.selector.select(high_logits, self._episode_starts)  # line 14
             else:  # only teachers present, affordable and asked can be chosen
                 limits.draw_presence(self._episode_starts)
-                asks = ask_gate(cfg.ask, low_out, cfg.ask_threshold)
+                asks = ask_gate(cfg.advice.ask, low_out, cfg.advice.ask_threshold)
                 can = limits.can_answer(asks)
                 choices = self.selector.select(mask_logits(high_logits, can), self._episode_starts)
             if self.solo is not None:  # graduate variant: some episodes are the student's alone
