@@ -169,6 +169,15 @@ def test_an_absent_teacher_is_never_asked_nor_chosen():
     assert not model.advice_buffer.labelled[: len(model.advice_buffer), 0].any()
 
 
+@pytest.mark.parametrize("selector", ["random", "ucb1"])
+def test_a_selector_that_reads_no_logits_never_gets_an_absent_teacher(selector):
+    gone, here = Spy("gone"), Spy("here")
+    model = _cartpole([gone, here], availability={"gone": 0.0}, selector=selector)
+    model.learn(128)
+    assert gone.rows == 0 and model.advice.answers[0] == 0
+    assert not (model.collect().choices == 0).any()
+
+
 def test_a_teacher_half_present_acts_and_labels_only_where_present():
     teacher = Spy("pd")
     model = _cartpole([teacher], availability={"pd": 0.5})

@@ -395,10 +395,17 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
     ) -> tuple[np.ndarray, np.ndarray]:
         """Pay for the answers of the teachers that act now (env by env, while the budget
         holds); a choice the budget no longer covers (spent by an environment before it in
-        this step) falls back to the agent. Returns the choices and the teachers each row's
-        high-level choice was made among: those that could answer, and a leader (teacher-led
-        episodes ask their teacher whatever the asking rule says)."""
+        this step) falls back to the agent, and so does one of a teacher that cannot answer
+        (a selector that reads no logits, random or ucb1, may pick it). Returns the choices
+        and the teachers each row's high-level choice was made among: those that could answer,
+        and a leader (teacher-led episodes ask their teacher whatever the asking rule says)."""
         k = self.n_teachers
+        allowed = can.copy()
+        if self.solo is not None:  # a leader still leading (_limit_leaders) can answer
+            led = np.flatnonzero(self.solo.leader >= 0)
+            allowed[led, self.solo.leader[led]] = True
+        rows = np.arange(len(choices))
+        choices = np.where((choices < k) & ~allowed[rows, np.minimum(choices, k - 1)], k, choices)
         acting = np.flatnonzero(choices < k)
         wanted = np.zeros((len(choices), k), dtype=bool)
         wanted[acting, choices[acting]] = True
