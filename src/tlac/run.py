@@ -684,6 +684,9 @@ def _train_locked(
         "final_eval_std": eval_rows[-1][2] if eval_rows else None,
         "platform": platform_record(),
     }
+    ledger = getattr(model, "advice", None)
+    if ledger is not None and getattr(model, "teacher_names", None):  # TL-AC's answers
+        result["advice"] = ledger.summary(list(model.teacher_names))
     kept = getattr(model, "deployed", None)
     if kept is not None:  # the kept student: the step whose student predict deploys
         result["student_kept_from_step"] = int(kept.num_timesteps)

@@ -217,6 +217,11 @@ def _check_type(algo: str, name: str, value: Any, hint: Any) -> None:
         _check_number(algo, name, value, integer=True)
     elif callable(value) and "Callable" in text:  # SB3's f(progress_remaining)
         _check_function_schedule(algo, name, value)
+    elif text.startswith("dict[str, float]"):  # a number per teacher name (teacher_cost)
+        if not isinstance(value, dict) or not all(isinstance(k, str) for k in value):
+            raise _type_error(algo, name, "a mapping of teacher names to numbers", value)
+        for key, number in value.items():
+            _check_number(algo, f"{name}[{key!r}]", number, integer=False)
     elif isinstance(value, dict) and "dict" in text:
         _check_schedule(algo, name, value)
     elif "float" in text:

@@ -318,14 +318,18 @@ class SoloEpisodes:
         led_means = self.led_sums / np.maximum(self.led_counts, 1)
         return bool(self.solo_returns) and float(np.mean(self.solo_returns)) > led_means.max()
 
-    def start(self, episode_starts: np.ndarray) -> np.ndarray:
+    def start(self, episode_starts: np.ndarray, can_lead: np.ndarray | None = None) -> np.ndarray:
         """Draw solo or assisted for every environment whose episode starts now; returns the
-        per-environment solo flags."""
+        per-environment solo flags. ``can_lead`` ``(n_envs, n_teachers)``: the teachers that
+        can answer in each environment now (present, within the advice budget;
+        tlac.algorithms.advice); only they lead, and where none can, the episode is not led.
+        None: every teacher can (the run without advice limits, drawing as before)."""
         starting = np.flatnonzero(episode_starts)
         if len(starting) and self.auditioning:
             for i in starting:  # the student alone until its floor is known, then each teacher
                 self.active[i] = self.solo_episodes < self.min_episodes
-                self.leader[i] = -1 if self.active[i] else self._least_led_teacher()
+                can = None if can_lead is None else can_lead[i]
+                self.leader[i] = -1 if self.active[i] else self._least_led_teacher(can)
         elif len(starting):
             self.active[starting] = self.rng.random(len(starting)) < self.probability
             if self.teacher_share > 0:  # (no draw otherwise: the same stream as before)
@@ -334,18 +338,32 @@ class SoloEpisodes:
                 share = 1.0 if self.no_teacher_helps else self.teacher_share
                 for i in starting:
                     led = not self.active[i] and self.rng.random() < share
-                    self.leader[i] = self._ucb1_teacher() if led else -1
+                    can = None if can_lead is None else can_lead[i]
+                    self.leader[i] = self._ucb1_teacher(can) if led else -1
         return self.active
 
-    def _least_led_teacher(self) -> int:
-        """The teacher that has led the fewest episodes (ties at random)."""
-        fewest = np.flatnonzero(self.led_counts == self.led_counts.min())
+    def _least_led_teacher(self, can: np.ndarray | None = None) -> int:
+        """The teacher that has led the fewest episodes (ties at random), among those that
+        ``can`` lead (None: all; -1 where none can)."""
+        counts = (
+            self.led_counts
+            if can is None
+            else np.where(can, self.led_counts, np.iinfo(np.int64).max)
+        )
+        if can is not None and not can.any():
+            return -1
+        fewest = np.flatnonzero(counts == counts.min())
         return int(self.rng.choice(fewest))
 
-    def _ucb1_teacher(self) -> int:
-        """The teacher to lead an episode: the best UCB1 index, ties (untried ones) at random."""
+    def _ucb1_teacher(self, can: np.ndarray | None = None) -> int:
+        """The teacher to lead an episode: the best UCB1 index, ties (untried ones) at random,
+        among those that ``can`` lead (None: all; -1 where none can)."""
         spread = self.led_high - self.led_low if self.led_high > self.led_low else 1.0
         scores = ucb1_scores(self.led_sums, self.led_counts, 1.0, spread)
+        if can is not None:
+            if not can.any():
+                return -1
+            scores = np.where(can, scores, -np.inf)
         return int(self.rng.choice(np.flatnonzero(scores == scores.max())))
 
     def end(self, env_index: int, episode_return: float) -> bool:
@@ -401,6 +419,7 @@ class AdviceBuffer:
         advice_shape: tuple[int, ...],
         advice_dtype: torch.dtype,
         obs_dtype: torch.dtype | None = None,
+        track_labels: bool = False,
     ):
         # obs_dtype (a Discrete, Dict or image space's: uint8 for images, 12,288 values a row
         # at 64x64x3) is left unwritten: no page of the ring is touched before a state lands
@@ -411,6 +430,12 @@ class AdviceBuffer:
             else torch.empty(capacity, obs_dim, dtype=obs_dtype)
         )
         self.advice = torch.zeros(capacity, *advice_shape, dtype=advice_dtype)
+        # track_labels (advice limited by a budget, availability or an asking rule): which
+        # teachers were asked in each row; the others' advice there is a placeholder that the
+        # imitation term weighs 0 (TLAC._replay_plan). None: every teacher labels every row
+        self.labelled = (
+            torch.zeros(capacity, advice_shape[0], dtype=torch.bool) if track_labels else None
+        )
         self.capacity = capacity
         self.size = 0
         self.next = 0
@@ -418,13 +443,19 @@ class AdviceBuffer:
     def __len__(self) -> int:
         return self.size
 
-    def add(self, obs: torch.Tensor, advice: torch.Tensor) -> None:
-        """``obs`` ``(n, obs_dim)``; ``advice`` ``(n_teachers, n, ...)`` as the update has it."""
+    def add(
+        self, obs: torch.Tensor, advice: torch.Tensor, labelled: torch.Tensor | None = None
+    ) -> None:
+        """``obs`` ``(n, obs_dim)``; ``advice`` ``(n_teachers, n, ...)`` as the update has it;
+        ``labelled`` ``(n, n_teachers)``: the teachers asked in each row (with track_labels)."""
         advice = advice.transpose(0, 1)[-self.capacity :]
         obs = obs[-self.capacity :].to(self.obs.dtype)
         slots = (self.next + torch.arange(len(obs))) % self.capacity
         self.obs[slots] = obs
         self.advice[slots] = advice
+        if self.labelled is not None:
+            assert labelled is not None, "a buffer that tracks labels needs them"
+            self.labelled[slots] = labelled[-self.capacity :]
         self.next = int(slots[-1] + 1) % self.capacity
         self.size = min(self.size + len(obs), self.capacity)
 

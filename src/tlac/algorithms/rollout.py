@@ -32,6 +32,9 @@ class Rollout:
     solo: np.ndarray  # (T, E) float32: 1 in an episode the student plays alone (graduation)
     net_obs: np.ndarray  # (T, E, obs_dim) float32: what the networks saw (normalised), if not obs
     teacher_obs: np.ndarray  # (T, E, obs_dim) float32: what the teachers saw, under a VecNormalize
+    # advice limited (tlac.algorithms.advice; None otherwise): (T, E, K) bool
+    askable: np.ndarray | None = None  # the teachers present where the student asked
+    high_mask: np.ndarray | None = None  # the teachers the high level could choose from
 
     @classmethod
     def empty(
@@ -60,6 +63,8 @@ class Rollout:
         out = {}
         for f in fields(self):
             a = getattr(self, f.name)
+            if a is None:
+                continue
             out[f.name] = torch.from_numpy(
                 np.ascontiguousarray(a.reshape(a.shape[0] * a.shape[1], *a.shape[2:]))
             )

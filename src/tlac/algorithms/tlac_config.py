@@ -8,10 +8,12 @@ preset and from SB3's ``policy_kwargs``.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from tlac.algorithms.advice import ASK_RULES
 from tlac.algorithms.encoding import ENCODINGS
 from tlac.domains import domain_names, get_domain
 from tlac.errors import ConfigError, UnknownNameError
@@ -98,6 +100,94 @@ REMOVED_LOW_LEVEL_DATA: dict[str, str] = {
     "uninformed": "measured slower than 'silent'; use 'silent'",
 }
 """Removed values of low_level_data, each with what to use instead."""
+
+
+@dataclass(frozen=True)
+class AdviceSettings:
+    """Advice that costs (issue 66; tlac.algorithms.advice, docs/advice.md): TLACConfig's
+    ``advice``. Its fields are TL-AC settings by their own names (``TLAC(...,
+    advice_budget=1000)``, ``--set ask=importance``); the defaults leave the run as it was
+    before budgets existed, byte for byte (answers are only counted)."""
+
+    advice_budget: float | None = None
+    """The run's advice budget, in cost units (with every teacher's cost 1: answers). An answer
+    is one teacher consulted in one collected state, counted once whether it is used to act,
+    stored as an imitation label, or both; once no teacher's answer fits in what is left, no
+    teacher is asked again and the student acts alone (tlac.algorithms.advice,
+    docs/advice.md). None: no limit (answers are still counted)."""
+    teacher_cost: dict[str, float] = field(default_factory=dict)
+    """Each teacher's cost per answer, by name (a name shared by several teachers, ``random``
+    for ``random_1`` and ``random_2``, sets them all); a teacher left out costs 1. Only the
+    budget reads it."""
+    availability: dict[str, float] = field(default_factory=dict)
+    """Each teacher's chance, by name, to be present in an episode (drawn per episode and
+    environment from a random stream of its own); a teacher left out is always present. An
+    absent teacher can neither be chosen by the high level nor give a label."""
+    ask: str = "always"
+    """In which states the student asks its teachers (tlac.algorithms.advice.ask_gate): always
+    (every state; tlac's default and the paper's), early (every state while the budget lasts:
+    Torrey & Taylor 2013's early advising), importance (where the spread of the student's own
+    action logits is at least ask_threshold: Amir et al. 2016's ask-important) or uncertainty
+    (where its policy's normalised entropy is at least ask_threshold: their ask-uncertain).
+    importance and uncertainty need discrete actions. Where the student does not ask, it acts
+    and no label is stored; a teacher-led episode's teacher is asked in every state."""
+    ask_threshold: float | None = None
+    """The threshold of ask importance (nats of logit spread; None: 1.0) or uncertainty (a
+    share of the largest entropy, in [0, 1]; None: 0.5)."""
+
+    def __post_init__(self) -> None:
+        check = Checks("TL-AC")
+        if self.advice_budget is not None:
+            check.number("advice_budget", self.advice_budget, 0.0)
+        for name, cost in self.teacher_cost.items():
+            check.number(f"teacher_cost[{name!r}]", cost, 0.0)
+        for name, chance in self.availability.items():
+            check.number(f"availability[{name!r}]", chance, 0.0, 1.0)
+        check.one_of("ask", self.ask, ASK_RULES)
+        if self.ask_threshold is not None:
+            high = 1.0 if self.ask == "uncertainty" else math.inf
+            check.number("ask_threshold", self.ask_threshold, 0.0, high)
+
+    @classmethod
+    def from_settings(cls, settings: dict[str, Any]) -> AdviceSettings:
+        """Built and checked from its fields by name (an unknown one: a ConfigError naming it)."""
+        if not isinstance(settings, dict):
+            raise ConfigError(f"TL-AC setting advice must be a mapping, got {settings!r:.60}")
+        return from_mapping(cls, "TL-AC advice", settings)
+
+    @property
+    def limits(self) -> bool:
+        """Whether advice is limited: a budget, a teacher not always present, or an asking rule
+        other than always. Without, the run is the one before budgets existed, byte for byte
+        (answers are only counted)."""
+        return (
+            self.advice_budget is not None
+            or any(p < 1 for p in self.availability.values())
+            or self.ask != "always"
+        )
+
+
+ADVICE_SETTINGS = tuple(AdviceSettings.__dataclass_fields__)
+"""The settings :class:`AdviceSettings` holds, each also a TL-AC setting by its own name."""
+
+
+def fold_advice_settings(settings: dict[str, Any]) -> dict[str, Any]:
+    """``settings`` with the advice settings given by name (``advice_budget``...) moved into
+    ``advice``, where those given as a mapping already are (one given both ways: the name wins).
+
+    >>> fold_advice_settings({"n_steps": 8, "advice_budget": 100})
+    {'n_steps': 8, 'advice': {'advice_budget': 100}}
+    """
+    named = {k: v for k, v in settings.items() if k in ADVICE_SETTINGS}
+    if not named:
+        return settings
+    given = settings.get("advice", {})
+    if isinstance(given, AdviceSettings):
+        given = {k: getattr(given, k) for k in ADVICE_SETTINGS}
+    if not isinstance(given, dict):
+        raise ConfigError(f"TL-AC setting advice must be a mapping, got {given!r:.60}")
+    rest = {k: v for k, v in settings.items() if k not in ADVICE_SETTINGS and k != "advice"}
+    return {**rest, "advice": {**given, **named}}
 
 
 @dataclass(frozen=True)
@@ -247,6 +337,10 @@ class TLACConfig:
     the way; elsewhere the imitation term alone trains the low level. Before the imitation
     term holds advice, and without teachers, the agent's rows; with Box actions no state is
     silent). None: the variant's (graduate silent, paper all)."""
+    advice: AdviceSettings = field(default_factory=AdviceSettings)
+    """Advice that costs (:class:`AdviceSettings`; docs/advice.md): given by the names of its
+    fields, as every other setting (``advice_budget=1000``, ``--set ask=importance``), or as a
+    mapping of them (``advice: {advice_budget: 1000}``)."""
     selector: str = "learned"
     """High level: learned (TL-AC), random or ucb1 (per episode) -- the Figure 11 ablations."""
     n_envs: int = 1
@@ -260,6 +354,13 @@ class TLACConfig:
     that is a SubprocVecEnv."""
 
     def __post_init__(self) -> None:
+        if isinstance(self.advice, dict):  # from a file or a saved model: its fields by name
+            object.__setattr__(self, "advice", AdviceSettings.from_settings(self.advice))
+        elif not isinstance(self.advice, AdviceSettings):
+            raise ConfigError(
+                f"TL-AC setting advice must be a mapping of {', '.join(ADVICE_SETTINGS)}, "
+                f"got {self.advice!r:.60}"
+            )
         if self.variant not in VARIANT_DEFAULTS:
             raise UnknownNameError("variant", self.variant, list(VARIANT_DEFAULTS))
         for name, value in VARIANT_DEFAULTS[self.variant].items():
@@ -279,7 +380,7 @@ class TLACConfig:
             raise ConfigError(
                 f"low_level_data {data!r} was removed: {REMOVED_LOW_LEVEL_DATA[data]}"
             )
-        return from_mapping(cls, "TL-AC", settings)
+        return from_mapping(cls, "TL-AC", fold_advice_settings(settings))
 
     @property
     def entropy_coefs(self) -> tuple[float, float]:
@@ -316,6 +417,7 @@ class TLACConfig:
         ):
             check.number(name, getattr(self, name), 0.0)
         check.number("teacher_episodes", self.teacher_episodes, 0.0, 1.0)
+
         if self.normalize_obs not in (True, False, "auto"):
             raise ConfigError(
                 f"TL-AC setting normalize_obs must be true, false or 'auto', got {self.normalize_obs!r}"

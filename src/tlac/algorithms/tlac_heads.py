@@ -41,7 +41,7 @@ from tlac.algorithms.student_policy import StudentPolicy, student_policy
 from tlac.errors import ConfigError
 from tlac.memory import FLOAT_BYTES, check_fits, mlp_params, network_bytes
 from tlac.presets import make_schedule
-from tlac.teachers.base import advice_actions, advice_probabilities
+from tlac.teachers.base import advice_actions, advice_probabilities, take_rows
 
 IMITATION_STD = 0.1
 """Box actions: the imitation term is the negative log-likelihood of the teachers' actions under
@@ -307,15 +307,19 @@ class TLACHeads:
             return torch.log_softmax(low_out, dim=-1).gather(1, actions.view(-1, 1)).squeeze(1)
         return gaussian_log_prob(actions, low_out, self._low_log_std(latent))
 
-    def _advice_on(self, obs: torch.Tensor) -> torch.Tensor:
+    def _advice_on(self, obs: torch.Tensor, asked: torch.Tensor | None = None) -> torch.Tensor:
         """Every teacher's advice in every row of ``obs``, each teacher asked once for the whole
         batch. Discrete actions: its distribution over them, ``(n_teachers, n, n_actions)``
         (tlac.teachers.base.advice_probabilities: a point mass where a teacher cannot tell).
         Box actions: ``(n_teachers, n, act_dim + 1)``, the action it means and, in the last
         column, its information (tlac.teachers.base.advice_actions: its own action and 1 where
-        a teacher cannot tell)."""
+        a teacher cannot tell). ``asked`` ``(n, n_teachers)`` (limited advice): each teacher is
+        asked on its rows only; elsewhere its advice is a placeholder that says nothing (the
+        uniform distribution; a zero action with information 0)."""
         raw = self._teacher_rows(obs.numpy())
         n = obs.shape[0]
+        if asked is not None:
+            return self._advice_where_asked(raw, n, asked.numpy())
         if self.discrete:
             return torch.from_numpy(
                 np.stack(
@@ -327,6 +331,26 @@ class TLACHeads:
             actions, information = advice_actions(teacher, raw, self.action_space)
             out.append(np.concatenate([actions.reshape(n, -1), information[:, None]], axis=1))
         return torch.from_numpy(np.stack(out).astype(np.float32))
+
+    def _advice_where_asked(self, raw: Any, n: int, asked: np.ndarray) -> torch.Tensor:
+        """:meth:`_advice_on` where each teacher is asked on the rows ``asked[:, k]`` only."""
+        if self.discrete:
+            n_actions = int(self.action_space.n)
+            out = np.full((self.n_teachers, n, n_actions), 1.0 / n_actions)
+        else:
+            out = np.zeros((self.n_teachers, n, self.advice_width))
+        for k, teacher in enumerate(self.teachers):
+            rows = np.flatnonzero(asked[:, k])
+            if not len(rows):
+                continue
+            batch = take_rows(raw, rows)
+            if self.discrete:
+                out[k, rows] = advice_probabilities(teacher, batch, self.action_space)
+            else:
+                actions, information = advice_actions(teacher, batch, self.action_space)
+                out[k, rows, :-1] = actions.reshape(len(rows), -1)
+                out[k, rows, -1] = information
+        return torch.from_numpy(out.astype(np.float32))
 
     def _advice_nll(
         self, low_out: torch.Tensor, latent: torch.Tensor, advice: torch.Tensor

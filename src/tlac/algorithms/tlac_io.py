@@ -45,7 +45,7 @@ from tlac.algorithms.tlac_config import SCHEDULES, TLACConfig
 from tlac.domains import domain_names, get_domain, make_teachers, make_vec_env
 from tlac.errors import ConfigError, TlacError
 from tlac.recording import EpisodeRecorder, MetricWindow, find_episode_recorder
-from tlac.teachers.base import Teacher, as_teacher, teacher_label, unique_names
+from tlac.teachers.base import Teacher, TeacherSpec, as_teacher, teacher_label, unique_names
 from tlac.teachers.sb3 import FrozenObsNormalization
 from tlac.validation import check_setting_types
 
@@ -145,8 +145,9 @@ def as_teachers(
         raise ConfigError(
             f"teachers must be a list, got the string {teachers!r}; did you mean [{teachers!r}]?"
         )
-    if callable(teachers) or hasattr(teachers, "predict"):  # one function, object or model
-        teachers = [teachers]
+    if callable(teachers) or hasattr(teachers, "predict") or isinstance(teachers, TeacherSpec):
+        teachers = [teachers]  # one function, object, model or spec
+    teachers = [t.resolve(action_space) if isinstance(t, TeacherSpec) else t for t in teachers]
     if teachers and all(isinstance(t, str) for t in teachers):
         if domain is None:
             raise ConfigError(
@@ -155,6 +156,36 @@ def as_teachers(
         return make_teachers(domain, list(teachers), domain.make_env(), seed)
     names = unique_names([teacher_label(t, i) for i, t in enumerate(teachers)])
     return [as_teacher(t, action_space, n) for t, n in zip(teachers, names, strict=True)]
+
+
+def with_teacher_terms(config: TLACConfig, teachers: Any, names: list[str]) -> TLACConfig:
+    """``config`` with the cost and availability of every :class:`TeacherSpec` among
+    ``teachers`` (by position; ``names``: the run's teacher names) in its ``teacher_cost`` and
+    ``availability`` settings. A teacher given both ways must be given the same value."""
+    if isinstance(teachers, TeacherSpec):
+        teachers = [teachers]
+    if not isinstance(teachers, Sequence) or isinstance(teachers, str):
+        return config
+    terms = config.advice
+    costs, chances = dict(terms.teacher_cost), dict(terms.availability)
+    for teacher, name in zip(teachers, names, strict=False):
+        if not isinstance(teacher, TeacherSpec):
+            continue
+        for setting, values, value, default in (
+            ("teacher_cost", costs, teacher.cost, 1.0),
+            ("availability", chances, teacher.availability, 1.0),
+        ):
+            if name in values and values[name] != value:
+                raise ConfigError(
+                    f"teacher {name!r} has {setting} {value:g} in its TeacherSpec and "
+                    f"{values[name]:g} in the settings; give it once"
+                )
+            if value != default:
+                values[name] = value
+    if (costs, chances) == (terms.teacher_cost, terms.availability):
+        return config
+    terms = dataclasses.replace(terms, teacher_cost=costs, availability=chances)
+    return dataclasses.replace(config, advice=terms)
 
 
 def is_sb3_zip(path: Path) -> bool:
@@ -335,6 +366,8 @@ class TLACPersistence:
                 f"the model was trained with {len(names)} teachers ({', '.join(names) or 'none'}); "
                 f"got {len(self.teachers)}"
             )
+        if saved is None and teachers is not None:
+            self.config = with_teacher_terms(config, teachers, names)
         self._build(obs_space, action_space, names)
 
     def set_env(self, env: Any, force_reset: bool = True) -> None:
@@ -522,7 +555,9 @@ class TLACPersistence:
                 "advice": buf.advice[: buf.size].clone(),
                 "next": buf.next,
                 "size": buf.size,
+                "labelled": None if buf.labelled is None else buf.labelled[: buf.size].clone(),
             },
+            "advice_ledger": None if self.advice is None else attributes_state(self.advice),
             "last_obs": tensor(
                 self._last_obs
                 if self._last_obs is None or self.obs_layout is None
@@ -565,6 +600,10 @@ class TLACPersistence:
             buf.obs[: saved["size"]] = saved["obs"]
             buf.advice[: saved["size"]] = saved["advice"]
             buf.next, buf.size = saved["next"], saved["size"]
+            if buf.labelled is not None and saved.get("labelled") is not None:
+                buf.labelled[: saved["size"]] = saved["labelled"]
+        if state.get("advice_ledger") is not None and self.advice is not None:
+            restore_attributes(self.advice, state["advice_ledger"])
         for name in ("last_obs", "episode_starts", "episode_returns", "sde_noise"):
             value = state[name]
             setattr(self, f"_{name}", None if value is None else value.numpy().copy())

@@ -31,6 +31,7 @@ from stable_baselines3.common.vec_env import unwrap_vec_normalize
 from torch import nn
 
 from tlac.algorithms import losses
+from tlac.algorithms.advice import AdviceLedger, ask_gate, mask_logits, per_teacher
 from tlac.algorithms.callbacks import LearnCallbacks, SB3Compat, check_sb3_arguments
 from tlac.algorithms.common import (
     check_seed,
@@ -199,6 +200,26 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             cfg.selector, self.n_choices, self.n_envs, self.seed, self.rng
         )
         self.train_high = self.selector.trains_high_level and self.n_choices > 1
+        # advice as it costs (tlac.algorithms.advice): answers are counted whenever there are
+        # teachers; limited (a budget, availability, an asking rule) only where the settings say
+        self.advice: AdviceLedger | None = None
+        terms = cfg.advice
+        self.limited_advice = terms.limits and self.n_teachers > 0
+        if self.n_teachers or terms.teacher_cost or terms.availability:
+            if terms.ask in ("importance", "uncertainty") and not self.discrete:
+                raise ConfigError(
+                    f"TL-AC setting ask {terms.ask!r} reads the student's action logits and "
+                    "needs discrete actions; use always or early with Box actions"
+                )
+            self.advice = AdviceLedger(
+                per_teacher(terms.teacher_cost, self.teacher_names, "teacher_cost", 1.0),
+                per_teacher(terms.availability, self.teacher_names, "availability", 1.0),
+                terms.advice_budget,
+                self.n_envs,
+                self.seed,
+                terms.ask,
+                terms.ask_threshold,
+            )
         self.advice_buffer: AdviceBuffer | None = None
         if self.n_teachers and cfg.distill_coef != 0:
             self.advice_buffer = AdviceBuffer(  # per state, every teacher's advice
@@ -207,6 +228,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 (self.n_teachers, self.advice_width),
                 torch.float32,
                 None if self.obs_layout is None else self.obs_layout.storage_dtype,
+                track_labels=self.limited_advice,
             )
         self._replay_generator = torch.Generator().manual_seed(self.seed + 1)
         self.solo: SoloEpisodes | None = None
@@ -265,6 +287,10 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         if cfg.use_sde:
             self._resample_sde_noise()
         vec_normalize = unwrap_vec_normalize(self.env)  # the user's: teachers get raw observations
+        limits = self.advice if self.limited_advice else None
+        if limits is not None:
+            ro.askable = np.zeros((T, E, self.n_teachers), dtype=bool)
+            ro.high_mask = np.zeros((T, E, self.n_teachers), dtype=bool)
         for t in range(T):
             if cfg.use_sde and cfg.sde_sample_freq > 0 and t > 0 and t % cfg.sde_sample_freq == 0:
                 self._resample_sde_noise()
@@ -275,14 +301,29 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             if self.normalizer is not None:
                 ro.net_obs[t] = net_obs
             high_logits, low_out, values, latent = self._act_heads_net(net_obs)
-            choices = self.selector.select(high_logits, self._episode_starts)  # line 14
+            if limits is None:
+                choices = self.selector.select(high_logits, self._episode_starts)  # line 14
+            else:  # only teachers present, affordable and asked can be chosen
+                limits.draw_presence(self._episode_starts)
+                asks = ask_gate(cfg.advice.ask, low_out, cfg.advice.ask_threshold)
+                can = limits.can_answer(asks)
+                choices = self.selector.select(mask_logits(high_logits, can), self._episode_starts)
             if self.solo is not None:  # graduate variant: some episodes are the student's alone
-                solo = self.solo.start(self._episode_starts)
+                solo = self.solo.start(
+                    self._episode_starts, None if limits is None else limits.can_lead()
+                )
+                if limits is not None:
+                    self._limit_leaders(limits)
                 choices = np.where(solo, self.n_teachers, choices)
                 # ... or one teacher's alone (teacher_episodes): their rows train the high level
                 # as its own choices, with their log-probabilities under it
                 choices = np.where(self.solo.leader >= 0, self.solo.leader, choices)
                 ro.solo[t] = solo
+            if limits is not None:  # the acting teachers' answers, paid for
+                choices, high_mask = self._charge_acting(limits, choices, can)
+                ro.askable[t] = limits.present & asks[:, None]
+                ro.high_mask[t] = high_mask
+                high_logits = mask_logits(high_logits, high_mask)
             actions = self._sample_low(low_out, latent)  # line 16 (kept where the agent acts)
             if self.greedy_solo:
                 actions = np.where(ro.solo[t][:, None] > 0, low_out, actions)
@@ -335,6 +376,59 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             sb3.rollout_end(self._sb3_locals(locals(), ro, T))
         return ro
 
+    def _limit_leaders(self, limits: AdviceLedger) -> None:
+        """Teacher-led episodes under limited advice: once the budget is spent, every episode
+        that starts is the student's alone (it is: no teacher is asked again), and a leader
+        whose answers no longer fit in the budget stops leading (its episode's return is then
+        counted as an assisted one, not as the teacher's own)."""
+        assert self.solo is not None
+        if limits.exhausted:
+            starting = np.asarray(self._episode_starts, dtype=bool)
+            self.solo.active[starting] = True
+            self.solo.leader[starting] = -1
+        led = np.flatnonzero(self.solo.leader >= 0)
+        lost = led[~limits.can_lead()[led, self.solo.leader[led]]]
+        self.solo.leader[lost] = -1
+
+    def _charge_acting(
+        self, limits: AdviceLedger, choices: np.ndarray, can: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Pay for the answers of the teachers that act now (env by env, while the budget
+        holds); a choice the budget no longer covers (spent by an environment before it in
+        this step) falls back to the agent, and so does one of a teacher that cannot answer
+        (a selector that reads no logits, random or ucb1, may pick it). Returns the choices
+        and the teachers each row's high-level choice was made among: those that could answer,
+        and a leader (teacher-led episodes ask their teacher whatever the asking rule says)."""
+        k = self.n_teachers
+        allowed = can.copy()
+        if self.solo is not None:  # a leader still leading (_limit_leaders) can answer
+            led = np.flatnonzero(self.solo.leader >= 0)
+            allowed[led, self.solo.leader[led]] = True
+        rows = np.arange(len(choices))
+        choices = np.where((choices < k) & ~allowed[rows, np.minimum(choices, k - 1)], k, choices)
+        acting = np.flatnonzero(choices < k)
+        wanted = np.zeros((len(choices), k), dtype=bool)
+        wanted[acting, choices[acting]] = True
+        granted = limits.charge(wanted, acting=True)
+        refused = (choices < k) & ~granted.any(axis=1)
+        if refused.any():
+            choices = np.where(refused, k, choices)
+            if self.solo is not None:
+                self.solo.leader[refused] = -1
+        return choices, can | granted
+
+    def _charge_labels(self, data: dict[str, torch.Tensor]) -> torch.Tensor:
+        """``(n, K)`` bool: the teachers asked for a label in each row of the rollout: those
+        present where the student asked, while the budget holds (rollout order); a teacher that
+        acted in a row labels it with the answer already paid for."""
+        assert self.advice is not None
+        choices = data["choices"].numpy()
+        acting = np.flatnonzero(choices < self.n_teachers)
+        paid = np.zeros((len(choices), self.n_teachers), dtype=bool)
+        paid[acting, choices[acting]] = True
+        wanted = data["askable"].numpy() | paid
+        return torch.from_numpy(self.advice.charge(wanted, paid))
+
     def _sb3_locals(self, local_vars: dict[str, Any], ro: Rollout, n_steps: int) -> dict[str, Any]:
         """:meth:`collect`'s variables, with the names of SB3's ``collect_rollouts`` that they
         lack, as SB3 callbacks read them in ``self.locals``: ``env`` (``get_env()``),
@@ -366,7 +460,21 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             distill *= 1.0 - self.solo.weaning
         imitates = self.advice_buffer is not None and distill > 0
         silent = None
-        if imitates:
+        if self.advice is not None and not self.limited_advice:  # counted only
+            self.advice.count_unlimited(data["choices"].numpy(), imitates)
+        if imitates and self.limited_advice:
+            labelled = self._charge_labels(data)
+            advice = self._advice_on(
+                data["obs"] if unwrap_vec_normalize(self.env) is None else data["teacher_obs"],
+                labelled,
+            )
+            self.advice_buffer.add(data["obs"], advice, labelled)
+            if cfg.low_level_data == "silent":  # where no teacher asked says anything
+                information = (
+                    losses.advice_information(advice) if self.discrete else advice[..., -1]
+                )
+                silent = losses.silent_information(information * labelled.T)
+        elif imitates:
             advice = self._advice_on(
                 data["obs"] if unwrap_vec_normalize(self.env) is None else data["teacher_obs"]
             )
@@ -547,6 +655,8 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             x[idx] if replayed is None else torch.cat([x[idx], self._replayed_x(replay, replayed)])
         )
         high_logits, low_out, values, latent = (h[:b] for h in heads)
+        if "high_mask" in data:  # limited advice: the choices the high level had in each row
+            high_logits = mask_logits(high_logits, data["high_mask"][idx])
         # low level, Eq. 3: log pi_low(a|s) A(s, a) on the EXECUTED actions
         lp_low = self._low_log_prob(low_out, latent, data["actions"][idx])
         log_probs = lp_low[None]
@@ -682,6 +792,12 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         if draws.idx.numel() * width <= MAX_PLANNED_REPLAY_VALUES:
             x = self._replay_rows(buffer.obs[draws.idx])
         advice = buffer.advice[draws.idx].transpose(0, 1)  # (n_teachers, rows, ...)
+        if buffer.labelled is not None:  # limited advice: a teacher not asked says nothing
+            asked = buffer.labelled[draws.idx].T.float()
+            if not self.discrete:
+                return ReplayPlan(draws, x, advice[..., :-1], advice[..., -1] * asked)
+            information = losses.advice_information(advice) * asked
+            return ReplayPlan(draws, x, losses.advice_labels(advice), information)
         if not self.discrete:  # the actions meant, and their information
             return ReplayPlan(draws, x, advice[..., :-1], advice[..., -1])
         return ReplayPlan(draws, x, losses.advice_labels(advice), losses.advice_information(advice))
@@ -763,16 +879,17 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 usage_metrics = {
                     f"teacher/{n}": float(v) for n, v in zip(names, shares, strict=True)
                 }
-                log_metrics(self, window.flush(), fps, episodes, sb3_output, usage_metrics)
+                metrics = window.flush()
+                if self.advice is not None:  # the answers asked so far, per teacher
+                    metrics.update(self.advice.metrics(self.teacher_names))
+                log_metrics(self, metrics, fps, episodes, sb3_output, usage_metrics)
                 logged_usage[:] = 0
                 next_log = next_log_step(self.num_timesteps, interval)
             if bar is not None:
                 bar.update(min(self.num_timesteps, end_steps) - bar.n - start_steps)
                 if time.time() - last_bar > 0.5:
                     last_bar = time.time()
-                    bar.set_postfix_str(
-                        progress_text(episodes, usage, self.teacher_names), refresh=False
-                    )
+                    bar.set_postfix_str(self._bar_text(episodes, usage), refresh=False)
                     usage[:] = 0
             if self.num_timesteps >= end_steps:  # before the callbacks' last evaluation
                 self._deploy_if_worth(
@@ -783,10 +900,17 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         callbacks.end()
         if bar is not None:  # the whole call's shares, as the bar's final text says
             span = f"all {self.num_timesteps - start_steps} steps:"
-            text = progress_text(episodes, call_usage, self.teacher_names, span)
-            bar.set_postfix_str(text, refresh=False)
+            bar.set_postfix_str(self._bar_text(episodes, call_usage, span), refresh=False)
             bar.close()
         return self
+
+    def _bar_text(self, episodes: Any, usage: np.ndarray, span: str = "recent:") -> str:
+        """The progress bar's text: the training return, the high level's choices and, with
+        teachers, the answers asked so far."""
+        text = progress_text(episodes, usage, self.teacher_names, span)
+        if self.advice is None or not self.n_teachers:
+            return text
+        return f"{text} | {self.advice.progress(self.teacher_names)}"
 
     def _check_can_learn(self) -> None:
         if self.env is None:

@@ -63,6 +63,55 @@ def _numbers_from_text(value: Any) -> Any:
     return value
 
 
+def _teacher_numbers(flag: str, pairs: list[str]) -> dict[str, float]:
+    """``--teacher-cost NAME=C`` / ``--availability NAME=P`` pairs as a mapping of teacher
+    names to numbers (their ranges are the setting's own checks).
+
+    >>> _teacher_numbers("--teacher-cost", ["optimal=2", "random=0.5"])
+    {'optimal': 2.0, 'random': 0.5}
+    """
+    out: dict[str, float] = {}
+    for pair in pairs:
+        name, _, value = pair.partition("=")
+        try:
+            number = float(value)
+        except ValueError:
+            number = None
+        if not name.strip() or number is None:
+            raise ConfigError(f"{flag} expects NAME=NUMBER, got {pair!r}")
+        out[name.strip()] = number
+    return out
+
+
+def _advice_overrides(args: argparse.Namespace) -> dict[str, Any]:
+    """The TL-AC settings of ``--advice-budget``, ``--teacher-cost`` and ``--availability``."""
+    out: dict[str, Any] = {}
+    if args.advice_budget is not None:
+        out["advice_budget"] = args.advice_budget
+    for flag, key, pairs in (
+        ("--teacher-cost", "teacher_cost", args.teacher_cost),
+        ("--availability", "availability", args.availability),
+    ):
+        if pairs:
+            out[key] = _teacher_numbers(flag, pairs)
+    if out and args.algo != "tlac":
+        raise ConfigError(
+            f"--advice-budget, --teacher-cost and --availability are TL-AC's; not {args.algo}'s"
+        )
+    return out
+
+
+def _check_teacher_names(overrides: dict[str, Any], names: list[str]) -> None:
+    """A --teacher-cost / --availability name that is no teacher of the run: one ConfigError
+    before anything is built (tlac.algorithms.advice.per_teacher)."""
+    from tlac.algorithms.advice import per_teacher
+    from tlac.teachers.base import unique_names
+
+    for key in ("teacher_cost", "availability"):
+        if isinstance(overrides.get(key), dict):
+            per_teacher(overrides[key], unique_names(names), key, 1.0)
+
+
 def _cmd_train(args: argparse.Namespace) -> int:
     from tlac.algorithms import NO_ADVICE
     from tlac.run import RunSpec, load_run_config, resume_run, train_run
@@ -99,7 +148,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
         steps=args.steps,
         selector=args.selector,
         preset=args.preset,
-        overrides=_parse_overrides(args.set),
+        overrides={**_parse_overrides(args.set), **_advice_overrides(args)},
         eval_every=args.eval_every,
         eval_episodes=args.eval_episodes,
         log_interval=args.log_interval,
@@ -117,6 +166,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
         else Path("runs") / f"{domain.name}__{spec.algo}__seed{spec.seed}"
     )
     names = spec.resolved_teachers(domain)
+    _check_teacher_names(spec.overrides, names)
     print(
         f"tlac train: {spec.algo} on {spec.env}, teachers [{', '.join(names) or 'none'}], "
         f"{spec.steps} steps, seed {spec.seed} -> {out}"
@@ -342,6 +392,29 @@ def build_parser() -> argparse.ArgumentParser:
         default=[],
         metavar="KEY=VALUE",
         help="override a hyperparameter, e.g. --set n_epochs=10 (YAML values)",
+    )
+    train.add_argument(
+        "--advice-budget",
+        type=float,
+        default=None,
+        metavar="N",
+        help="TL-AC: the advice budget in cost units (every cost 1: answers); once spent, no "
+        "teacher is asked again (docs/advice.md)",
+    )
+    train.add_argument(
+        "--teacher-cost",
+        action="append",
+        default=[],
+        metavar="NAME=C",
+        help="TL-AC: a teacher's cost per answer (default 1); repeat per teacher",
+    )
+    train.add_argument(
+        "--availability",
+        action="append",
+        default=[],
+        metavar="NAME=P",
+        help="TL-AC: a teacher's chance to be present in an episode (default 1); repeat per "
+        "teacher",
     )
     train.add_argument(
         "--eval-every",

@@ -4,7 +4,7 @@ domain's package (:mod:`tlac.domains.doorkey.teachers`, ...) and are built throu
 domain's ``make_teacher``. Measuring a teacher on a domain: :mod:`tlac.teachers.measure`.
 """
 
-from tlac.teachers.base import Teacher, as_teacher, check_actions, unique_names
+from tlac.teachers.base import Teacher, TeacherSpec, as_teacher, check_actions, unique_names
 from tlac.teachers.sb3 import from_rl_zoo, from_sb3
 from tlac.teachers.wrappers import (
     GaussianNoiseTeacher,
@@ -20,6 +20,7 @@ __all__ = [
     "PartialTeacher",
     "RandomTeacher",
     "Teacher",
+    "TeacherSpec",
     "as_teacher",
     "check_actions",
     "from_rl_zoo",

@@ -68,6 +68,44 @@ class NamedTeacher:
         return np.asarray(self.teacher.predict(obs))
 
 
+class TeacherSpec:
+    """A teacher with the terms of its advice (issue 66, docs/advice.md): ``cost`` per answer
+    (what the run's ``advice_budget`` is spent in) and ``availability``, the chance it is
+    present in an episode. ``policy``: anything :func:`as_teacher` takes, or (env a domain
+    name) one of the domain's teacher names; ``name``: its name in logs and in the
+    ``teacher_cost`` / ``availability`` settings it fills.
+
+    >>> spec = TeacherSpec(lambda obs: 0, name="pd", cost=2.0, availability=0.5)
+    >>> spec.name, spec.cost, spec.availability
+    ('pd', 2.0, 0.5)
+    >>> TeacherSpec(lambda obs: 0, cost=-1)
+    Traceback (most recent call last):
+    tlac.errors.ConfigError: TeacherSpec cost must be a number >= 0, got -1
+    """
+
+    def __init__(
+        self, policy: Any, name: str | None = None, cost: float = 1.0, availability: float = 1.0
+    ):
+        from tlac.errors import ConfigError
+
+        for field, value, high in (("cost", cost, np.inf), ("availability", availability, 1.0)):
+            ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
+            if not ok or not 0.0 <= float(value) <= high:
+                expected = "a number >= 0" if high == np.inf else "a number in [0, 1]"
+                raise ConfigError(f"TeacherSpec {field} must be {expected}, got {value!r}")
+        if name is not None and (not isinstance(name, str) or not name):
+            raise ConfigError(f"TeacherSpec name must be a non-empty string, got {name!r}")
+        self.policy, self.name = policy, name
+        self.cost, self.availability = float(cost), float(availability)
+
+    def resolve(self, action_space: gym.Space) -> Any:
+        """What it stands for among a run's teachers: a domain teacher's name as it is, else
+        the teacher, under this spec's name where it has one."""
+        if isinstance(self.policy, str) or self.name is None:
+            return self.policy
+        return as_teacher(self.policy, action_space, self.name)
+
+
 def _is_sb3_model(obj: Any) -> bool:
     """Whether ``obj`` is an SB3 model or policy: its ``predict`` returns ``(actions, state)``."""
     # an object cannot be an SB3 model unless SB3 is loaded: skip its (slow) import otherwise

@@ -1,0 +1,332 @@
+"""Advice that costs (issue 66): a run's query budget, each teacher's cost per answer and its
+availability, and the rules that decide in which states the student asks (docs/advice.md).
+
+The paper's TL-AC, and tlac's default, treat every teacher as always there and every answer as
+free: the default asks every teacher in every collected state. Here a teacher is asked only
+where its answer is used, and each answer is paid for:
+
+* **An answer** is one teacher consulted in one collected state. It is counted once, whether it
+  is used to act (the teacher the high level chose, or the one leading a teacher-led
+  episode), stored as an imitation label, or both.
+* **The budget** (``advice_budget``, in cost units) is spent answer by answer, in the order of
+  the rollout; an answer whose cost does not fit in what is left is not asked, so the budget
+  is never exceeded. Once nothing fits, no teacher is asked again: the student acts alone.
+* **Availability**: each teacher is present in an episode with its probability, drawn per
+  episode and environment from this module's own random stream (acting is otherwise
+  untouched). An absent teacher can neither be chosen (its high-level logit is masked) nor
+  give a label.
+* **Asking rules** (:data:`ASK_RULES`) decide, state by state, whether the student asks at all
+  (:func:`ask_gate`): the baselines of the action-advising literature, Torrey & Taylor 2013
+  ("Teaching on a Budget") and Amir et al. 2016 ("Interactive Teaching Strategies for Agent
+  Training"), read from the student's own policy so that teachers need expose no Q-values.
+
+>>> logits = np.array([[0.0, 0.0, 0.0], [3.0, 0.0, 0.0]])
+>>> ask_gate("importance", logits, 1.0).tolist(), ask_gate("uncertainty", logits, 0.5).tolist()
+([False, True], [True, False])
+>>> grant_in_order(np.ones((2, 2), bool), np.array([1.0, 2.0]), remaining=4.0)[0].tolist()
+[[True, True], [True, False]]
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+ASK_RULES = ("always", "early", "importance", "uncertainty")
+"""The asking rules (``ask``): which states the student asks its teachers in."""
+
+DEFAULT_THRESHOLDS = {"importance": 1.0, "uncertainty": 0.5}
+"""``ask_threshold`` where it is left unset: importance, a spread of 1 nat between the
+student's most and least likely actions (the best e times likelier than the worst);
+uncertainty, half of the largest possible entropy."""
+
+MASKED_LOGIT = -1e9
+"""The high-level logit of a teacher that cannot answer: a probability of exactly 0 in float32
+and float64, while log-softmax and entropies stay finite (``-inf`` would give ``0 * inf``)."""
+
+
+def logit_spread(logits: np.ndarray) -> np.ndarray:
+    """``(n,)``: the spread ``max_a - min_a`` of the student's action logits in each row.
+    Torrey & Taylor 2013 measure a state's importance by the spread of its Q-values, ``max_a
+    Q(s, a) - min_a Q(s, a)``: how much the choice of action matters there. A softmax policy's
+    logits are its Q-values up to a per-state constant and a temperature (an entropy-regularised
+    policy is ``softmax(Q / tau)``), so their spread is that importance read from the student's
+    own policy, without asking the teacher for anything.
+
+    >>> logit_spread(np.array([[1.0, -1.0, 0.5], [0.0, 0.0, 0.0]])).tolist()
+    [2.0, 0.0]
+    """
+    return logits.max(axis=-1) - logits.min(axis=-1)
+
+
+def normalized_entropy(logits: np.ndarray) -> np.ndarray:
+    """``(n,)``: the entropy of ``softmax(logits)`` over ``log A``, in [0, 1]: 1 where the
+    student has no preference (every action equally likely), 0 where it is certain.
+
+    >>> normalized_entropy(np.array([[0.0, 0.0], [50.0, 0.0]])).round(6).tolist()
+    [1.0, 0.0]
+    """
+    n_actions = logits.shape[-1]
+    if n_actions < 2:
+        return np.zeros(logits.shape[0])
+    z = logits - logits.max(axis=-1, keepdims=True)
+    log_p = z - np.log(np.exp(z).sum(axis=-1, keepdims=True))
+    entropy = -(np.exp(log_p) * log_p).sum(axis=-1)
+    return np.clip(entropy / math.log(n_actions), 0.0, 1.0)
+
+
+def ask_gate(rule: str, logits: np.ndarray, threshold: float | None = None) -> np.ndarray:
+    """``(n,)`` bool: whether the student asks its teachers in each row, by ``rule``, from its
+    own action ``logits`` ``(n, A)`` (discrete actions).
+
+    * ``always``: in every state (tlac's default, the paper's TL-AC).
+    * ``early``: in every state while the budget lasts: Torrey & Taylor 2013's *early
+      advising*. The decision is always's; the name says what a budget makes of it: the
+      answers go to the first states the student meets.
+    * ``importance``: where the spread of the student's logits is at least ``threshold``
+      (:func:`logit_spread`): the student asks where the choice of action matters, Amir et al.
+      2016's student-initiated *ask important*, on Torrey & Taylor 2013's importance measure.
+    * ``uncertainty``: where the normalised entropy of the student's policy is at least
+      ``threshold`` (:func:`normalized_entropy`): the student asks where it does not know what
+      to do, Amir et al. 2016's *ask uncertain* (their Q-values close together, here its policy
+      near uniform).
+
+    ``threshold`` None: :data:`DEFAULT_THRESHOLDS`.
+
+    >>> ask_gate("early", np.zeros((3, 2))).tolist()
+    [True, True, True]
+    >>> ask_gate("importance", np.array([[0.4, 0.0], [1.5, 0.0]]), 1.0).tolist()
+    [False, True]
+    """
+    n = logits.shape[0]
+    if rule in ("always", "early"):
+        return np.ones(n, dtype=bool)
+    if threshold is None:
+        threshold = DEFAULT_THRESHOLDS[rule]
+    if rule == "importance":
+        return logit_spread(logits) >= threshold
+    if rule == "uncertainty":
+        return normalized_entropy(logits) >= threshold
+    raise ValueError(f"unknown asking rule {rule!r}; expected one of {', '.join(ASK_RULES)}")
+
+
+def grant_in_order(
+    wanted: np.ndarray,
+    costs: np.ndarray,
+    remaining: float,
+    paid: np.ndarray | None = None,
+) -> tuple[np.ndarray, float]:
+    """Which of the ``wanted`` answers ``(n, K)`` (rows: states in rollout order; columns:
+    teachers) are asked, and the budget left after them. Answers are granted row by row,
+    teacher by teacher, each while its cost fits in what is left; one that does not fit is
+    skipped, and a cheaper one after it may still be granted. So the total cost never exceeds
+    ``remaining``. ``paid`` ``(n, K)``: answers already asked (a teacher that acted in that state:
+    its label comes with the same answer), granted again at no cost.
+
+    >>> wanted = np.array([[True, True], [True, True]])
+    >>> granted, left = grant_in_order(wanted, np.array([2.0, 1.0]), 3.0)
+    >>> granted.tolist(), left
+    ([[True, True], [False, False]], 0.0)
+    >>> paid = np.array([[True, False], [False, False]])
+    >>> grant_in_order(wanted, np.array([2.0, 1.0]), 3.0, paid)[0].tolist()
+    [[True, True], [True, False]]
+    """
+    wanted = np.asarray(wanted, dtype=bool)
+    free = np.zeros_like(wanted) if paid is None else np.asarray(paid, dtype=bool) & wanted
+    charged = wanted & ~free
+    bill = np.broadcast_to(costs, wanted.shape)[charged]
+    if math.fsum(bill.tolist()) <= remaining:  # everything fits: no loop
+        return wanted.copy(), max(remaining - math.fsum(bill.tolist()), 0.0)
+    granted = free.copy()
+    for i, k in zip(*np.nonzero(charged), strict=True):
+        cost = float(costs[k])
+        if cost <= remaining:
+            granted[i, k] = True
+            remaining -= cost  # >= 0: IEEE subtraction of a smaller number
+    return granted, remaining
+
+
+def per_teacher(
+    values: dict[str, float], names: list[str], setting: str, default: float
+) -> np.ndarray:
+    """``(K,)``: a per-teacher setting (``teacher_cost``, ``availability``) given by name, in
+    the order of ``names``; ``default`` where a teacher is not named. A name shared by several
+    teachers (``random`` for ``random_1`` and ``random_2``, as tlac names duplicates) sets them
+    all. A name that is no teacher's raises one ConfigError listing the teachers.
+
+    >>> per_teacher({"random": 2.0}, ["optimal", "random_1", "random_2"], "teacher_cost", 1.0)
+    array([1., 2., 2.])
+    """
+    from tlac.errors import ConfigError
+
+    out = np.full(len(names), float(default))
+    for key, value in values.items():
+        hits = [i for i, n in enumerate(names) if n == key]
+        if not hits:
+            hits = [
+                i
+                for i, n in enumerate(names)
+                if n.rsplit("_", 1)[0] == key and n.rsplit("_", 1)[-1].isdigit()
+            ]
+        if not hits:
+            teachers = ", ".join(names) or "none"
+            raise ConfigError(
+                f"TL-AC setting {setting} names teacher {key!r}, not one of this run's teachers "
+                f"({teachers})"
+            )
+        out[hits] = float(value)
+    return out
+
+
+def mask_logits(high_logits: np.ndarray, can_answer: np.ndarray) -> np.ndarray:
+    """The high level's logits ``(n, K + 1)`` with every teacher that cannot answer in a row
+    (``can_answer`` ``(n, K)`` False) set to :data:`MASKED_LOGIT`; the agent (the last column)
+    is always there. Works on NumPy arrays and torch tensors alike.
+
+    >>> mask_logits(np.zeros((1, 3)), np.array([[True, False]])).tolist()
+    [[0.0, -1000000000.0, 0.0]]
+    """
+    if isinstance(high_logits, np.ndarray):
+        keep = np.concatenate([can_answer, np.ones((len(can_answer), 1), bool)], axis=1)
+        return np.where(keep, high_logits, MASKED_LOGIT).astype(high_logits.dtype)
+    import torch
+
+    keep = torch.cat([can_answer, torch.ones(len(can_answer), 1, dtype=torch.bool)], dim=1)
+    return torch.where(keep, high_logits, torch.full_like(high_logits, MASKED_LOGIT))
+
+
+class AdviceLedger:
+    """The advice a run may still ask and the answers it has asked: the budget left, each
+    teacher's presence in every environment's current episode, and per teacher the answers
+    asked (``answers``), those used to act (``acted``) and those stored as labels (``labels``;
+    an answer both acted on and stored counts once in ``answers``).
+
+    ``costs`` and ``availability``: per teacher; ``budget``: cost units, None for no limit.
+    """
+
+    def __init__(
+        self,
+        costs: np.ndarray,
+        availability: np.ndarray,
+        budget: float | None,
+        n_envs: int,
+        seed: int,
+        rule: str = "always",
+        threshold: float | None = None,
+    ):
+        self.costs = np.asarray(costs, dtype=np.float64)
+        self.availability = np.asarray(availability, dtype=np.float64)
+        self.budget = math.inf if budget is None else float(budget)
+        self.remaining = self.budget
+        self.rule, self.threshold = rule, threshold
+        n_teachers = len(self.costs)
+        # until an environment's first episode draws it, only an always-present teacher is
+        self.present = np.tile(self.availability >= 1, (n_envs, 1))
+        self.answers = np.zeros(n_teachers, dtype=np.int64)
+        self.acted = np.zeros(n_teachers, dtype=np.int64)
+        self.labels = np.zeros(n_teachers, dtype=np.int64)
+        self.spent = 0.0
+        self.rng = np.random.default_rng([seed, 0xAD71CE])  # its own stream: acting is untouched
+
+    def draw_presence(self, episode_starts: np.ndarray) -> None:
+        """Draw which teachers are present in the episodes that start now (each with its
+        availability); a teacher available with probability 1 is always present, no draw."""
+        starting = np.flatnonzero(episode_starts)
+        if len(starting) and (self.availability < 1).any():
+            draws = self.rng.random((len(starting), len(self.availability)))
+            self.present[starting] = draws < self.availability
+
+    def affordable(self) -> np.ndarray:
+        """``(K,)``: the teachers whose next answer fits in the budget left."""
+        return self.costs <= self.remaining
+
+    @property
+    def exhausted(self) -> bool:
+        """No teacher's answer fits in the budget left: no teacher is asked again."""
+        return not bool(self.affordable().any())
+
+    def can_lead(self) -> np.ndarray:
+        """``(E, K)``: the teachers that can answer in each environment now, whatever the
+        asking rule says (present, and affordable)."""
+        return self.present & self.affordable()
+
+    def can_answer(self, gate: np.ndarray) -> np.ndarray:
+        """``(E, K)``: the teachers the high level may choose in each environment: present,
+        affordable, and the student asks there (``gate`` ``(E,)``, :func:`ask_gate`)."""
+        return self.can_lead() & np.asarray(gate, dtype=bool)[:, None]
+
+    def charge(
+        self, wanted: np.ndarray, paid: np.ndarray | None = None, acting: bool = False
+    ) -> np.ndarray:
+        """Ask the ``wanted`` answers ``(n, K)`` that fit (:func:`grant_in_order`), count them
+        and spend their cost; ``paid``: answers already counted (granted at no cost, counted
+        as labels only). ``acting``: the answers are used to act (else stored as labels)."""
+        granted, self.remaining = grant_in_order(wanted, self.costs, self.remaining, paid)
+        new = granted if paid is None else granted & ~np.asarray(paid, dtype=bool)
+        new_counts = new.sum(axis=0)
+        self.answers += new_counts
+        self.spent += float(new_counts @ self.costs)
+        (self.acted if acting else self.labels)[:] += granted.sum(axis=0)
+        return granted
+
+    def count_unlimited(self, choices: np.ndarray, labelled: bool) -> None:
+        """Count a rollout's answers where advice is not limited (nothing is refused): the
+        teachers that acted (``choices`` ``(n,)``, the agent is ``K``) and, where the rollout
+        was ``labelled``, every teacher in every row (an acted answer labels its row too)."""
+        k = len(self.costs)
+        acted = np.bincount(choices[choices < k], minlength=k).astype(np.int64)
+        self.acted += acted
+        new = np.full(k, len(choices), dtype=np.int64) if labelled else acted
+        if labelled:
+            self.labels += len(choices)
+        self.answers += new
+        self.spent += float(new @ self.costs)
+
+    def metrics(self, names: list[str]) -> dict[str, float]:
+        """The logged counts: ``advice/answers_<teacher>``, ``advice/spent`` and, with a budget,
+        ``advice/remaining``."""
+        out = {f"advice/answers_{n}": float(a) for n, a in zip(names, self.answers, strict=True)}
+        out["advice/spent"] = self.spent
+        if math.isfinite(self.budget):
+            out["advice/remaining"] = self.remaining
+        return out
+
+    def summary(self, names: list[str]) -> dict[str, object]:
+        """For result.json: the budget, what was spent, and per teacher its answers, those
+        used to act and those stored as labels."""
+        return {
+            "budget": None if not math.isfinite(self.budget) else self.budget,
+            "spent": self.spent,
+            "ask": self.rule,
+            "teachers": {
+                n: {
+                    "cost": float(c),
+                    "availability": float(p),
+                    "answers": int(a),
+                    "acted": int(x),
+                    "labels": int(lab),
+                }
+                for n, c, p, a, x, lab in zip(
+                    names,
+                    self.costs,
+                    self.availability,
+                    self.answers,
+                    self.acted,
+                    self.labels,
+                    strict=True,
+                )
+            },
+        }
+
+    def progress(self, names: list[str]) -> str:
+        """The progress bar's text: the answers per teacher and the budget spent.
+
+        >>> ledger = AdviceLedger(np.ones(2), np.ones(2), 10.0, 1, 0)
+        >>> _ = ledger.charge(np.array([[True, False]]))
+        >>> ledger.progress(["a", "b"])
+        'answers a 1 b 0, spent 1/10'
+        """
+        counts = " ".join(f"{n} {a}" for n, a in zip(names, self.answers, strict=True))
+        limit = f"/{self.budget:g}" if math.isfinite(self.budget) else ""
+        return f"answers {counts}, spent {self.spent:g}{limit}"

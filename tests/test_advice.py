@@ -1,0 +1,335 @@
+"""Advice that costs (issue 66): the asking rules' decisions, the budget never exceeded, absent
+teachers never chosen nor asked, the answers counted, and bad input said in one line."""
+
+from __future__ import annotations
+
+import hashlib
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import stable_baselines3  # noqa: F401  (imported while collecting: the first test is not its import)
+import torch
+
+from tlac import TLAC
+from tlac.algorithms.advice import (
+    AdviceLedger,
+    ask_gate,
+    grant_in_order,
+    logit_spread,
+    mask_logits,
+    normalized_entropy,
+    per_teacher,
+)
+from tlac.cli import main
+from tlac.errors import ConfigError
+from tlac.recording import Recorder
+from tlac.teachers import TeacherSpec
+
+torch.set_num_threads(1)
+
+SMALL = {"n_steps": 32, "batch_size": 32, "n_epochs": 2}  # many short, cheap updates
+
+
+class Spy:
+    """A CartPole teacher that pushes where the pole leans and counts the states it is asked
+    about (``predict`` is its only method: its labels are asked through it too)."""
+
+    def __init__(self, name: str):
+        self.name, self.rows = name, 0
+
+    def predict(self, obs: np.ndarray) -> np.ndarray:
+        self.rows += len(obs)
+        return (obs[:, 2] + 0.5 * obs[:, 3] > 0).astype(np.int64)
+
+
+# --------------------------------------------------------------------------- the asking rules
+def test_rules_decide_by_hand():
+    logits = np.array(
+        [
+            [0.0, 0.0, 0.0],  # no preference: spread 0, entropy 1
+            [2.0, 0.0, 0.0],  # spread 2; p = (0.787, 0.107, 0.107), entropy 0.606 of log 3
+            [0.5, 0.0, 0.0],  # spread 0.5; entropy 0.983
+            [9.0, 0.0, 0.0],  # spread 9; entropy 0.0023
+        ]
+    )
+    assert logit_spread(logits).tolist() == [0.0, 2.0, 0.5, 9.0]
+    p = np.exp([2.0, 0, 0]) / np.exp([2.0, 0, 0]).sum()
+    by_hand = -(p * np.log(p)).sum() / math.log(3)
+    assert normalized_entropy(logits)[1] == pytest.approx(by_hand) == pytest.approx(0.6061, 1e-3)
+    assert ask_gate("always", logits).tolist() == [True] * 4
+    assert ask_gate("early", logits).tolist() == [True] * 4
+    assert ask_gate("importance", logits, 1.0).tolist() == [False, True, False, True]
+    assert ask_gate("importance", logits, 2.0).tolist() == [False, True, False, True]  # >=
+    assert ask_gate("importance", logits, 2.5).tolist() == [False, False, False, True]
+    assert ask_gate("uncertainty", logits, 0.5).tolist() == [True, True, True, False]
+    assert ask_gate("uncertainty", logits, 0.7).tolist() == [True, False, True, False]
+    assert ask_gate("importance", logits).tolist() == ask_gate("importance", logits, 1.0).tolist()
+    assert ask_gate("uncertainty", logits).tolist() == ask_gate("uncertainty", logits, 0.5).tolist()
+
+
+def test_grant_in_order_by_hand():
+    wanted = np.array([[True, True, False], [True, True, True]])
+    costs = np.array([1.0, 3.0, 0.5])
+    # row 0: teacher 0 (1, left 3), teacher 1 (3, left 0); row 1: none fits but the free one
+    granted, left = grant_in_order(wanted, costs, 4.0)
+    assert granted.tolist() == [[True, True, False], [False, False, False]] and left == 0.0
+    # with 4.5: row 1's teacher 2 (0.5) still fits after teacher 0 and 1 are skipped
+    granted, left = grant_in_order(wanted, costs, 4.5)
+    assert granted.tolist() == [[True, True, False], [False, False, True]] and left == 0.0
+    # an answer already paid (a teacher that acted) labels at no cost: 4 - 1 - 1 - 0.5
+    paid = np.array([[False, True, False], [False, False, False]])
+    granted, left = grant_in_order(wanted, costs, 4.0, paid)
+    assert granted.tolist() == [[True, True, False], [True, False, True]] and left == 1.5
+    free = grant_in_order(wanted, np.zeros(3), 0.0)[0]  # free teachers: asked on no budget
+    assert free.tolist() == wanted.tolist()
+
+
+def test_the_budget_is_never_exceeded_random_cases():
+    """Property test over random costs (some free), wants, paid answers and budgets."""
+    rng = np.random.default_rng(66)
+    for _ in range(300):
+        n, k = rng.integers(1, 40), rng.integers(1, 5)
+        costs = rng.choice([0.0, 0.1, 0.3, 1.0, 2.5, 7.0], size=k)
+        wanted = rng.random((n, k)) < rng.random()
+        paid = wanted & (rng.random((n, k)) < 0.2)
+        budget = float(rng.choice([0.0, 0.7, 3.0, 10.0, 1e9]))
+        granted, left = grant_in_order(wanted, costs, budget, paid)
+        bill = math.fsum(np.broadcast_to(costs, (n, k))[granted & ~paid].tolist())
+        assert bill <= budget + 1e-9 and left >= 0.0
+        assert left == pytest.approx(budget - bill, abs=1e-9)
+        assert not (granted & ~wanted).any() and not (paid & ~granted).any()
+        refused = wanted & ~granted
+        assert (np.broadcast_to(costs, (n, k))[refused] > left).all()  # none was left unasked
+
+
+def test_ledger_counts_add_up_random_cases():
+    """Over random costs, availabilities and budgets: presence follows availability (0 never,
+    1 always), what is spent never exceeds the budget and is the answers' cost, and every
+    answer is counted once however it was used."""
+    rng = np.random.default_rng(7)
+    for case in range(100):
+        k, envs = int(rng.integers(1, 4)), int(rng.integers(1, 4))
+        costs = rng.choice([0.0, 0.5, 1.0, 3.0], size=k)
+        availability = rng.choice([0.0, 0.3, 1.0], size=k)
+        budget = float(rng.choice([0.0, 5.0, 40.0]))
+        ledger = AdviceLedger(costs, availability, budget, envs, seed=case)
+        expected_answers = np.zeros(k, dtype=np.int64)
+        for _step in range(20):
+            ledger.draw_presence(rng.random(envs) < 0.3)
+            assert not ledger.present[:, availability == 0].any()
+            assert ledger.present[:, availability == 1].all()
+            can = ledger.can_answer(rng.random(envs) < 0.8)
+            choices = np.array([rng.choice(np.flatnonzero(np.append(c, True))) for c in can])
+            wanted = np.zeros((envs, k), dtype=bool)
+            acting = np.flatnonzero(choices < k)
+            wanted[acting, choices[acting]] = True
+            acted = ledger.charge(wanted, acting=True)
+            labels = ledger.charge(can | acted, paid=acted)
+            assert not (labels & ~(can | acted)).any()  # only present, asked teachers label
+            expected_answers += (acted | labels).sum(0)
+        assert ledger.spent <= budget + 1e-9
+        assert ledger.spent == pytest.approx(float(ledger.answers @ costs))
+        assert ledger.answers.tolist() == expected_answers.tolist()
+        assert (ledger.answers <= ledger.acted + ledger.labels).all()
+
+
+def test_masked_logits_leave_the_agent_and_zero_the_absent():
+    logits = np.array([[1.0, 2.0, 3.0]], dtype=np.float32)
+    masked = mask_logits(logits, np.array([[False, True]]))
+    probs = np.exp(masked - masked.max()) / np.exp(masked - masked.max()).sum()
+    assert masked.dtype == np.float32 and probs[0, 0] == 0.0 and probs[0, 1:].sum() == 1.0
+    same = mask_logits(torch.tensor(logits), torch.tensor([[True, True]]))
+    assert torch.equal(same, torch.tensor(logits))
+
+
+def test_per_teacher_names():
+    names = ["optimal", "random_1", "random_2"]
+    assert per_teacher({}, names, "availability", 1.0).tolist() == [1.0, 1.0, 1.0]
+    assert per_teacher({"random_2": 0.5}, names, "availability", 1.0).tolist() == [1, 1, 0.5]
+    with pytest.raises(ConfigError, match="names teacher 'oracle', not one of this run's"):
+        per_teacher({"oracle": 2.0}, names, "teacher_cost", 1.0)
+
+
+# --------------------------------------------------------------------------- in training
+def _cartpole(teachers, **settings):
+    return TLAC(gym.make("CartPole-v1"), teachers=teachers, **{"seed": 0, **SMALL, **settings})
+
+
+def test_an_absent_teacher_is_never_asked_nor_chosen():
+    gone, here = Spy("gone"), Spy("here")
+    model = _cartpole([gone, here], availability={"gone": 0.0})
+    model.learn(320)
+    assert gone.rows == 0 and model.advice.answers[0] == 0
+    assert here.rows > 0 and model.advice.answers[1] > 0
+    # the high level could not choose it in any row it trained on
+    ro = model.collect()
+    assert not (ro.choices == 0).any() and not ro.high_mask[..., 0].any()
+    assert not model.advice_buffer.labelled[: len(model.advice_buffer), 0].any()
+
+
+@pytest.mark.parametrize("selector", ["random", "ucb1"])
+def test_a_selector_that_reads_no_logits_never_gets_an_absent_teacher(selector):
+    gone, here = Spy("gone"), Spy("here")
+    model = _cartpole([gone, here], availability={"gone": 0.0}, selector=selector)
+    model.learn(128)
+    assert gone.rows == 0 and model.advice.answers[0] == 0
+    assert not (model.collect().choices == 0).any()
+
+
+def test_a_teacher_half_present_acts_and_labels_only_where_present():
+    teacher = Spy("pd")
+    model = _cartpole([teacher], availability={"pd": 0.5})
+    model.learn(640)
+    ro = model.collect()
+    chose = ro.choices == 0
+    assert chose.any() and ro.askable[..., 0][chose].all()  # chosen only where present
+    ledger = model.advice
+    # asking means calling: the teacher saw exactly the states it was counted for (an answer
+    # both acted on and stored as a label is one answer, asked for its action and its label)
+    assert teacher.rows == ledger.acted[0] + ledger.labels[0]
+    assert 0 < ledger.answers[0] <= ledger.acted[0] + ledger.labels[0]
+
+
+def test_presence_is_drawn_per_episode_with_its_chance():
+    ledger = AdviceLedger(np.ones(3), np.array([0.0, 0.25, 1.0]), None, n_envs=2, seed=0)
+    present = []
+    for _ in range(2000):
+        ledger.draw_presence(np.array([True, False]))  # env 0's episodes start, env 1's go on
+        present.append(ledger.present.copy())
+    present = np.array(present)
+    assert present[:, 0].mean(0).tolist()[0] == 0.0 and present[:, 0, 2].all()
+    assert present[:, 0, 1].mean() == pytest.approx(0.25, abs=0.03)
+    assert (present[:, 1] == [False, False, True]).all()  # not drawn yet: only the sure one
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_budget_is_never_exceeded_in_training(seed):
+    rng = np.random.default_rng(seed)
+    costs = {"a": float(rng.choice([0.5, 1.0, 3.0])), "b": float(rng.choice([1.0, 2.0]))}
+    chances = {"a": float(rng.choice([0.3, 1.0])), "b": float(rng.choice([0.5, 1.0]))}
+    budget = float(rng.choice([50.0, 400.0]))
+    a, b = Spy("a"), Spy("b")
+    model = _cartpole(
+        [a, b], advice_budget=budget, teacher_cost=costs, availability=chances, seed=seed
+    )
+    model.learn(960)
+    ledger = model.advice
+    assert ledger.spent <= budget
+    assert ledger.spent == pytest.approx(ledger.answers @ np.array([costs["a"], costs["b"]]))
+    assert ledger.exhausted  # 960 steps ask more than either budget
+    assert (a.rows, b.rows) == tuple(ledger.acted + ledger.labels)
+    # spent: every episode from now on is the student's, and nobody is asked again
+    before = (a.rows, b.rows)
+    ro = model.collect()
+    assert (ro.choices == 2).all() and (a.rows, b.rows) == before
+
+
+def test_a_teacher_spec_sets_cost_and_availability():
+    pd, other = Spy("pd"), Spy("other")
+    model = _cartpole(
+        [TeacherSpec(pd, name="pd", cost=2.0, availability=0.5), other], advice_budget=10
+    )
+    assert model.config.advice.teacher_cost == {"pd": 2.0}
+    assert model.config.advice.availability == {"pd": 0.5}
+    assert model.advice.costs.tolist() == [2.0, 1.0]
+    with pytest.raises(ConfigError, match="give it once"):
+        _cartpole([TeacherSpec(pd, name="pd", cost=2.0)], teacher_cost={"pd": 3.0})
+
+
+def test_answers_are_logged_and_reported(tmp_path):
+    recorder = Recorder(tmp_path, ["pd", "agent"], log_interval=64)
+    model = _cartpole([Spy("pd")], advice_budget=100, recorder=recorder)
+    model.learn(256)
+    recorder.close(model.num_timesteps)
+    progress = (tmp_path / "progress.csv").read_text()
+    assert "advice/answers_pd" in progress and "advice/spent" in progress
+    assert "advice/remaining" in progress
+    assert model.advice.progress(["pd"]).startswith("answers pd ")
+    summary = model.advice.summary(["pd"])
+    assert summary["budget"] == 100 and summary["teachers"]["pd"]["answers"] > 0
+
+
+def _digest(model: TLAC) -> str:
+    digest = hashlib.sha256()
+    for key, tensor in sorted(model.net.state_dict().items()):
+        digest.update(key.encode() + tensor.numpy().tobytes())
+    return digest.hexdigest()[:16]
+
+
+def test_a_budget_never_reached_changes_nothing():
+    """The limited path (masks, gates, labels by teacher) with a budget it never reaches and
+    ask early trains the same weights as the run without limits, to the byte (DoorKey: labels
+    from the first update)."""
+    digests = []
+    for settings in ({}, {"advice_budget": 1e12, "ask": "early"}):
+        model = TLAC(
+            "doorkey", teachers=["optimal", "random"], seed=1, n_steps=8, batch_size=8, **settings
+        )
+        assert model.limited_advice == bool(settings)
+        model.learn(160)
+        digests.append(_digest(model))
+    assert digests[0] == digests[1]
+
+
+# --------------------------------------------------------------------------- bad input
+@pytest.mark.parametrize(
+    ("settings", "message"),
+    [
+        ({"teacher_cost": {"a": -1.0}}, r"teacher_cost\['a'\] must be >= 0, got -1.0"),
+        ({"availability": {"a": 1.5}}, r"availability\['a'\] must be in \[0, 1\], got 1.5"),
+        ({"advice_budget": -1}, "advice_budget must be >= 0"),
+        ({"ask": "sometimes"}, "unknown ask 'sometimes'"),
+        ({"teacher_cost": {"z": 2.0}}, "names teacher 'z', not one of this run's teachers"),
+    ],
+)
+def test_bad_advice_settings_say_what(settings, message):
+    with pytest.raises(ConfigError, match=message):
+        _cartpole([Spy("a")], **settings)
+
+
+def test_bad_teacher_spec_and_rules_for_box_actions():
+    with pytest.raises(ConfigError, match="availability must be a number in"):
+        TeacherSpec(lambda obs: 0, availability=2.0)
+    with pytest.raises(ConfigError, match="needs discrete actions"):
+        TLAC(gym.make("Pendulum-v1"), teachers=[lambda o: np.zeros(1)], ask="importance")
+
+
+@pytest.mark.parametrize(
+    ("flags", "message"),
+    [
+        (["--teacher-cost", "oracle=2"], "names teacher 'oracle'"),
+        (["--teacher-cost", "random=-1"], "must be >= 0"),
+        (["--availability", "optimal=1.5"], "must be in [0, 1]"),
+        (["--teacher-cost", "random"], "--teacher-cost expects NAME=NUMBER"),
+    ],
+)
+def test_cli_bad_advice_flags_exit_2_with_one_line(tmp_path, capsys, flags, message):
+    argv = ["train", "--env", "doorkey", "--steps", "64", "--out", str(tmp_path / "r"), *flags]
+    assert main([*argv, "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err
+
+
+def test_an_interrupted_run_resumes_its_budget_exactly(tmp_path):
+    """The ledger (budget left, presence, its random stream, the counts) and the labels the
+    buffer holds travel in a training-state checkpoint: interrupted and resumed equals
+    uninterrupted."""
+    settings = {
+        "seed": 3,
+        "n_steps": 8,
+        "batch_size": 8,
+        "advice_budget": 100,
+        "availability": {"optimal": 0.5},
+    }
+    whole = TLAC("doorkey", teachers=["optimal", "random"], **settings).learn(160)
+    half = TLAC("doorkey", teachers=["optimal", "random"], **settings).learn(80)
+    half.save(tmp_path / "half.pt", training_state=True)
+    resumed = TLAC.load(
+        tmp_path / "half.pt", env="doorkey", teachers=["optimal", "random"], resume=True
+    )
+    resumed.learn(80, reset_num_timesteps=False)
+    assert _digest(resumed) == _digest(whole)
+    assert resumed.advice.answers.tolist() == whole.advice.answers.tolist()
+    assert resumed.advice.spent == whole.advice.spent <= 100
