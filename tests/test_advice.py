@@ -159,7 +159,7 @@ def _cartpole(teachers, **settings):
 
 def test_an_absent_teacher_is_never_asked_nor_chosen():
     gone, here = Spy("gone"), Spy("here")
-    model = _cartpole([gone, here], availability={"gone": 0.0})
+    model = _cartpole([gone, here], availability={"gone": 1e-12})
     model.learn(320)
     assert gone.rows == 0 and model.advice.answers[0] == 0
     assert here.rows > 0 and model.advice.answers[1] > 0
@@ -172,7 +172,7 @@ def test_an_absent_teacher_is_never_asked_nor_chosen():
 @pytest.mark.parametrize("selector", ["random", "ucb1"])
 def test_a_selector_that_reads_no_logits_never_gets_an_absent_teacher(selector):
     gone, here = Spy("gone"), Spy("here")
-    model = _cartpole([gone, here], availability={"gone": 0.0}, selector=selector)
+    model = _cartpole([gone, here], availability={"gone": 1e-12}, selector=selector)
     model.learn(128)
     assert gone.rows == 0 and model.advice.answers[0] == 0
     assert not (model.collect().choices == 0).any()
@@ -278,7 +278,8 @@ def test_a_budget_never_reached_changes_nothing():
     ("settings", "message"),
     [
         ({"teacher_cost": {"a": -1.0}}, r"teacher_cost\['a'\] must be >= 0, got -1.0"),
-        ({"availability": {"a": 1.5}}, r"availability\['a'\] must be in \[0, 1\], got 1.5"),
+        ({"availability": {"a": 1.5}}, r"availability\['a'\] must be in \(0, 1\], got 1.5"),
+        ({"availability": {"a": 0.0}}, r"availability\['a'\] must be in \(0, 1\], got 0.0"),
         ({"advice_budget": -1}, "advice_budget must be >= 0"),
         ({"ask": "sometimes"}, "unknown ask 'sometimes'"),
         ({"teacher_cost": {"z": 2.0}}, "names teacher 'z', not one of this run's teachers"),
@@ -301,7 +302,7 @@ def test_bad_teacher_spec_and_rules_for_box_actions():
     [
         (["--teacher-cost", "oracle=2"], "names teacher 'oracle'"),
         (["--teacher-cost", "random=-1"], "must be >= 0"),
-        (["--availability", "optimal=1.5"], "must be in [0, 1]"),
+        (["--availability", "optimal=1.5"], "must be in (0, 1]"),
         (["--teacher-cost", "random"], "--teacher-cost expects NAME=NUMBER"),
     ],
 )

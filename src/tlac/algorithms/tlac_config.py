@@ -120,8 +120,9 @@ class AdviceSettings:
     for ``random_1`` and ``random_2``, sets them all); a teacher left out costs 1. Only the
     budget reads it."""
     availability: dict[str, float] = field(default_factory=dict)
-    """Each teacher's chance, by name, to be present in an episode (drawn per episode and
-    environment from a random stream of its own); a teacher left out is always present. An
+    """Each teacher's chance, by name, to be present in an episode, in (0, 1] (drawn per
+    episode and environment from a random stream of its own); a teacher left out is always
+    present. An
     absent teacher can neither be chosen by the high level nor give a label."""
     ask: str = "always"
     """In which states the student asks its teachers (tlac.algorithms.advice.ask_gate): always
@@ -142,7 +143,8 @@ class AdviceSettings:
         for name, cost in self.teacher_cost.items():
             check.number(f"teacher_cost[{name!r}]", cost, 0.0)
         for name, chance in self.availability.items():
-            check.number(f"availability[{name!r}]", chance, 0.0, 1.0)
+            # (0: never present, never judged by the graduate variant's audition: leave it out)
+            check.number(f"availability[{name!r}]", chance, 0.0, 1.0, open_low=True)
         check.one_of("ask", self.ask, ASK_RULES)
         if self.ask_threshold is not None:
             high = 1.0 if self.ask == "uncertainty" else math.inf
