@@ -88,10 +88,12 @@ class TeacherSpec:
     ):
         from tlac.errors import ConfigError
 
-        for field, value, high in (("cost", cost, np.inf), ("availability", availability, 1.0)):
+        for field, value, expected, inside in (
+            ("cost", cost, "a number >= 0", lambda v: v >= 0.0),
+            ("availability", availability, "a number in (0, 1]", lambda v: 0.0 < v <= 1.0),
+        ):
             ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
-            if not ok or not 0.0 <= float(value) <= high:
-                expected = "a number >= 0" if high == np.inf else "a number in [0, 1]"
+            if not ok or not inside(float(value)):
                 raise ConfigError(f"TeacherSpec {field} must be {expected}, got {value!r}")
         if name is not None and (not isinstance(name, str) or not name):
             raise ConfigError(f"TeacherSpec name must be a non-empty string, got {name!r}")
