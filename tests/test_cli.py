@@ -152,6 +152,7 @@ def test_envs_and_train_say_how_to_use_a_gymnasium_id(capsys):
     assert main(["envs"]) == 0
     out = capsys.readouterr().out
     assert "Any registered Gymnasium id (CartPole-v1, ...) works from Python: " in out
+    assert "as Gymnasium ids (gym.make): tlac/DoorKey-v0, tlac/DoorKeyPartial-v0" in out
     assert "TLAC('CartPole-v1', teachers=[...])" in out
     assert "tlac train --env CartPole-v1 --teachers path/to/file.py:NAME" in out
     assert "tlac train --env path/to/file.py:DOMAIN (examples/my_domain.py)" in out

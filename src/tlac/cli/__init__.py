@@ -331,8 +331,11 @@ def _cmd_envs(args: argparse.Namespace) -> int:
         print(
             f"{'':14s} teachers: {', '.join(d.teacher_names)}; regions: {', '.join(d.region_names)}"
         )
+    from tlac.gym_ids import GYM_IDS
+
+    print(f"\nThe same domains as Gymnasium ids (gym.make): {', '.join(GYM_IDS)}")
     print(
-        "\nAny registered Gymnasium id (CartPole-v1, ...) works from Python: "
+        "Any registered Gymnasium id (CartPole-v1, ...) works from Python: "
         "TLAC('CartPole-v1', teachers=[...]);\non the command line with teachers from files: "
         "tlac train --env CartPole-v1 --teachers path/to/file.py:NAME,path/to/agent.zip "
         "--trust-pickle,\nor a domain file that makes it and names its teachers: tlac train "
