@@ -394,7 +394,15 @@ def train_run(
         ):
             meta = None if fresh else _resumable(out, spec, domain)
             return _train_locked(
-                spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, meta, trust_pickle
+                spec,
+                out,
+                domain,
+                hp,
+                progress_bar,
+                on_eval,
+                checkpoint_every,
+                meta=meta,
+                trust_pickle=trust_pickle,
             )
     except ConfigError:  # refused when the model was built (its memory): leave no folder
         if created and not (out / CHECKPOINT).exists():
@@ -446,7 +454,15 @@ def resume_run(
         folder_lock(out / LOCK_FILE, f"{str(out)!r} is in use by another tlac process"),
     ):
         return _train_locked(
-            spec, out, domain, hp, progress_bar, on_eval, checkpoint_every, meta, trust_pickle
+            spec,
+            out,
+            domain,
+            hp,
+            progress_bar,
+            on_eval,
+            checkpoint_every,
+            meta=meta,
+            trust_pickle=trust_pickle,
         )
 
 
