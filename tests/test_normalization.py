@@ -71,7 +71,7 @@ def test_teachers_see_raw_observations_and_the_statistics_are_saved(tmp_path) ->
         n_steps=32,
         batch_size=32,
     )
-    model.learn(640, progress_bar=False)
+    model.learn(1280, progress_bar=False)  # (past the audition: 1,000 solo steps)
     assert len(seen) > 10 and min(float(o.min()) for o in seen) > 90.0  # raw: shifted by 100
     mean = model.normalizer.obs_rms.mean
     assert mean.min() > 90.0  # the statistics are of the raw observations

@@ -5,6 +5,8 @@ The CLI turns any :class:`TlacError` into one line on stderr and exit status 2.
 
 from __future__ import annotations
 
+import traceback
+
 
 class TlacError(ValueError):
     """Base class for every user-facing error raised by tlac."""
@@ -149,3 +151,14 @@ def _check_yaml_node(node: object, where: str, sizes: dict[int, int]) -> int:
         )
     sizes[id(node)] = size
     return size
+
+
+def import_failure(exc: Exception) -> str:
+    """Where and why importing a user's domain module failed, in one line: the file and line
+    of a syntax error, or of the deepest frame of the module's own code that raised."""
+    if isinstance(exc, SyntaxError):
+        return f"syntax error in {exc.filename}, line {exc.lineno}: {exc.msg}"
+    frames = [f for f in traceback.extract_tb(exc.__traceback__) if "importlib" not in f.filename]
+    where = f" in {frames[-1].filename}, line {frames[-1].lineno}" if frames else ""
+    detail = str(exc).splitlines()[0] if str(exc) else ""
+    return f"importing it raised {type(exc).__name__}{where}" + (f": {detail}" if detail else "")

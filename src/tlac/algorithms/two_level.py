@@ -905,10 +905,11 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         return self
 
     def _bar_text(self, episodes: Any, usage: np.ndarray, span: str = "recent:") -> str:
-        """The progress bar's text: the training return, the high level's choices and, with
-        teachers, the answers asked so far."""
+        """The progress bar's text: the training return, the high level's choices and, where
+        advice is limited (a budget, costs, availability, an asking rule), the answers asked so
+        far and the budget spent (without limits they are in progress.csv and result.json)."""
         text = progress_text(episodes, usage, self.teacher_names, span)
-        if self.advice is None or not self.n_teachers:
+        if self.advice is None or not self.limited_advice:
             return text
         return f"{text} | {self.advice.progress(self.teacher_names)}"
 

@@ -21,7 +21,6 @@ import importlib
 import importlib.util
 import inspect
 import re
-import traceback
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,7 +29,7 @@ import gymnasium as gym
 import numpy as np
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
-from tlac.errors import ConfigError, UnknownNameError
+from tlac.errors import ConfigError, UnknownNameError, import_failure
 from tlac.gym_ids import GYM_IDS, register_gym_ids  # noqa: F401  (their former home)
 from tlac.recording import EpisodeRecorder
 from tlac.teachers.base import NamedTeacher, Teacher, unique_names
@@ -200,7 +199,7 @@ def _import_domain(spec: str) -> Domain:
     except ImportError as exc:
         raise ConfigError(f"environment {spec!r}: cannot import {module_name!r} ({exc})") from None
     except Exception as exc:  # the user's module itself: a syntax error, or code that raises
-        raise ConfigError(f"environment {spec!r}: {_import_failure(exc)}") from None
+        raise ConfigError(f"environment {spec!r}: {import_failure(exc)}") from None
     domain = getattr(module, attr, None)
     if not isinstance(domain, Domain):
         raise ConfigError(
@@ -209,17 +208,6 @@ def _import_domain(spec: str) -> Domain:
         )
     _IMPORTED[spec] = register_domain(domain, replace=True)
     return _IMPORTED[spec]
-
-
-def _import_failure(exc: Exception) -> str:
-    """Where and why importing a user's domain module failed, in one line: the file and line
-    of a syntax error, or of the deepest frame of the module's own code that raised."""
-    if isinstance(exc, SyntaxError):
-        return f"syntax error in {exc.filename}, line {exc.lineno}: {exc.msg}"
-    frames = [f for f in traceback.extract_tb(exc.__traceback__) if "importlib" not in f.filename]
-    where = f" in {frames[-1].filename}, line {frames[-1].lineno}" if frames else ""
-    detail = str(exc).splitlines()[0] if str(exc) else ""
-    return f"importing it raised {type(exc).__name__}{where}" + (f": {detail}" if detail else "")
 
 
 def gym_id_hint(env_id: str) -> str:

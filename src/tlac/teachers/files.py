@@ -31,7 +31,7 @@ from typing import Any
 
 import gymnasium as gym
 
-from tlac.errors import ConfigError
+from tlac.errors import ConfigError, import_failure
 from tlac.teachers.sb3 import check_trust_pickle, from_rl_zoo, from_sb3
 
 POLICY_MODULES = {
@@ -120,8 +120,6 @@ def load_teacher_file(found: TeacherFile, env: gym.Env, trust_pickle: bool) -> A
 
 def _python_object(found: TeacherFile) -> Any:
     """The object ``found.attr`` of the Python file ``found.path`` (the file is run)."""
-    from tlac.domains import _import_failure
-
     path = Path(found.path)
     module_spec = importlib.util.spec_from_file_location(path.stem, path)
     if not path.is_file() or module_spec is None or module_spec.loader is None:
@@ -130,7 +128,7 @@ def _python_object(found: TeacherFile) -> Any:
     try:
         module_spec.loader.exec_module(module)
     except Exception as exc:  # the user's file itself: a syntax error, or code that raises
-        raise ConfigError(f"teacher {found.path}:{found.attr}: {_import_failure(exc)}") from None
+        raise ConfigError(f"teacher {found.path}:{found.attr}: {import_failure(exc)}") from None
     if not hasattr(module, found.attr):
         raise ConfigError(
             f"teacher {found.path}:{found.attr}: the file defines no {found.attr!r}; expected a "
