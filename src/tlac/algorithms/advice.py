@@ -147,6 +147,19 @@ def grant_in_order(
     return granted, remaining
 
 
+def acting_teachers(choices: np.ndarray, n_teachers: int) -> np.ndarray:
+    """``(n, K)`` bool: the teacher that acts in each row (``choices`` ``(n,)``; the agent,
+    ``K``, is no teacher).
+
+    >>> acting_teachers(np.array([1, 2, 0]), 2).astype(int).tolist()
+    [[0, 1], [0, 0], [1, 0]]
+    """
+    acting = np.flatnonzero(choices < n_teachers)
+    rows = np.zeros((len(choices), n_teachers), dtype=bool)
+    rows[acting, choices[acting]] = True
+    return rows
+
+
 def per_teacher(
     values: dict[str, float], names: list[str], setting: str, default: float
 ) -> np.ndarray:

@@ -345,13 +345,9 @@ class SoloEpisodes:
     def _least_led_teacher(self, can: np.ndarray | None = None) -> int:
         """The teacher that has led the fewest episodes (ties at random), among those that
         ``can`` lead (None: all; -1 where none can)."""
-        counts = (
-            self.led_counts
-            if can is None
-            else np.where(can, self.led_counts, np.iinfo(np.int64).max)
-        )
         if can is not None and not can.any():
             return -1
+        counts = self.led_counts if can is None else np.where(can, self.led_counts, np.inf)
         fewest = np.flatnonzero(counts == counts.min())
         return int(self.rng.choice(fewest))
 

@@ -31,7 +31,13 @@ from stable_baselines3.common.vec_env import unwrap_vec_normalize
 from torch import nn
 
 from tlac.algorithms import losses
-from tlac.algorithms.advice import AdviceLedger, ask_gate, mask_logits, per_teacher
+from tlac.algorithms.advice import (
+    AdviceLedger,
+    acting_teachers,
+    ask_gate,
+    mask_logits,
+    per_teacher,
+)
 from tlac.algorithms.callbacks import LearnCallbacks, SB3Compat, check_sb3_arguments
 from tlac.algorithms.common import (
     check_seed,
@@ -406,10 +412,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             allowed[led, self.solo.leader[led]] = True
         rows = np.arange(len(choices))
         choices = np.where((choices < k) & ~allowed[rows, np.minimum(choices, k - 1)], k, choices)
-        acting = np.flatnonzero(choices < k)
-        wanted = np.zeros((len(choices), k), dtype=bool)
-        wanted[acting, choices[acting]] = True
-        granted = limits.charge(wanted, acting=True)
+        granted = limits.charge(acting_teachers(choices, k), acting=True)
         refused = (choices < k) & ~granted.any(axis=1)
         if refused.any():
             choices = np.where(refused, k, choices)
@@ -422,10 +425,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         present where the student asked, while the budget holds (rollout order); a teacher that
         acted in a row labels it with the answer already paid for."""
         assert self.advice is not None
-        choices = data["choices"].numpy()
-        acting = np.flatnonzero(choices < self.n_teachers)
-        paid = np.zeros((len(choices), self.n_teachers), dtype=bool)
-        paid[acting, choices[acting]] = True
+        paid = acting_teachers(data["choices"].numpy(), self.n_teachers)
         wanted = data["askable"].numpy() | paid
         return torch.from_numpy(self.advice.charge(wanted, paid))
 
