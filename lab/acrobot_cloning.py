@@ -9,19 +9,29 @@ cross-entropy fit on all labels so far. After every round it prints the student'
 agreement with the labels and its return over the suite's 30 evaluation episodes (seeds
 10000-10029, as benchmarks/user_envs.py scores every learner).
 
-    .venv/bin/python benchmarks/acrobot_cloning.py --teacher lookahead --hidden 64 64
+    .venv/bin/python lab/acrobot_cloning.py --teacher lookahead --hidden 64 64
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 import torch
-from user_envs import EVAL_EPISODES, AcrobotLookahead, acrobot_swing, evaluate, one_by_one
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+from user_envs import (  # benchmarks/user_envs.py: the suite's teachers
+    EVAL_EPISODES,
+    AcrobotLookahead,
+    acrobot_swing,
+    evaluate,
+    one_by_one,
+)
 
 Policy = Callable[[np.ndarray], int]
 

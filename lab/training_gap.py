@@ -2,7 +2,7 @@
 issue 8's target "training return never more than 0.05 below the paper variant in any 1e4
 window after 2e4 steps" (docs/graduation.md).
 
-    python benchmarks/training_gap.py 'results/graduation-doorkey-keep-best/runs/*' \\
+    python lab/training_gap.py 'results/graduation-doorkey-keep-best/runs/*' \\
         'results/graduation-doorkey/runs/*__paper__*' --steps 100000
 """
 

@@ -2,7 +2,7 @@
 training, the student alone (greedy), the high level's mean probabilities on the first
 teacher's own trajectory, and the student's greedy agreement with that teacher there.
 
-    .venv/bin/python benchmarks/graduation_trace.py CartPole-v1 --seed 2
+    .venv/bin/python lab/graduation_trace.py CartPole-v1 --seed 2
 
 It showed why the default's student can fall late in training (docs/graduation.md, "Users'
 own environments"): the high level hands control to the agent, and the imitation term, which
@@ -13,14 +13,18 @@ follows trust that has drifted to the random teacher.
 from __future__ import annotations
 
 import argparse
+import sys
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 import torch
-from user_envs import SUITE, evaluate, parse_settings
 
 from tlac import TLAC
 from tlac.algorithms.nets import np_log_softmax
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+from user_envs import SUITE, evaluate, parse_settings  # benchmarks/user_envs.py
 
 
 def teacher_trajectory(env_id: str, teacher, n: int, seed: int = 123) -> np.ndarray:

@@ -2,7 +2,7 @@
 environment steps: issue 9's C9 check (which teacher each room reuses, and when the agent
 takes over).
 
-    python benchmarks/region_usage.py 'results/doorkey-r2/runs/*teacher-l__tlac*' --windows 0:5e4 2e5:3e5 4e5:5e5
+    python lab/region_usage.py 'results/doorkey-r2/runs/*teacher-l__tlac*' --windows 0:5e4 2e5:3e5 4e5:5e5
 
 For each window (steps ``a < t <= b`` of the rows of teacher_usage.csv) and region: the share
 of each choice among all choices made in that region, pooled over the runs (count-weighted),

@@ -6,7 +6,7 @@ update sees it (normalised per 16-row minibatch). Prints, per window of ``--wind
 per room and choice: the share of the steps, the mean raw advantage and the mean normalised
 advantage. results/graduation-notes.md ("Why the high level collapses with partial teachers") reads the output.
 
-    python benchmarks/high_level_advantages.py --variant paper --steps 16000 --seed 0
+    python lab/high_level_advantages.py --variant paper --steps 16000 --seed 0
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ plays the deployed student greedily and, at the first repeated state, prints the
 student's action probabilities, the high level's probabilities (which weight each teacher's
 advice in the imitation term) and a reference teacher's action there; then a summary.
 
-    python benchmarks/greedy_loops.py RUN_FOLDER --episodes 30 --reference ppo
+    python lab/greedy_loops.py RUN_FOLDER --episodes 30 --reference ppo
 
 RUN_FOLDER holds a TL-AC ``model.pt`` trained on ``doorkey`` (results/graduation-notes.md, "The
 greedy and the sampled student on these teachers").

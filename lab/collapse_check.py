@@ -4,7 +4,7 @@ A run collapses when, after the best 5e4-step window of its training return, som
 falls below half of that best (windows every 1e4 steps, each the mean return of the episodes
 that end in it). Reads an experiment folder, its runs as folders or packed in runs.tar.xz.
 
-    python benchmarks/collapse_check.py results/graduation-doorkey-noisy-labels
+    python lab/collapse_check.py results/graduation-doorkey-noisy-labels
 """
 
 from __future__ import annotations

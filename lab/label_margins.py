@@ -7,7 +7,7 @@ compares the student's greedy action with the reference's and measures the margi
 (DoorKey's noisy teacher: 1/3 on the base's action, 2/15 on each other) agrees with its base
 in most states but by a few hundredths, and its greedy path loops wherever one margin flips.
 
-    python benchmarks/label_margins.py --teachers ppo-noisy,ppo-noisy,ppo-noisy --steps 100000
+    python lab/label_margins.py --teachers ppo-noisy,ppo-noisy,ppo-noisy --steps 100000
 
 results/graduation-notes.md, section 29, has its figures.
 """
