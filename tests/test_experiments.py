@@ -191,7 +191,11 @@ def test_grid_expansion_names_and_baseline_once_per_seed() -> None:
 
 
 def test_shipped_configs_load() -> None:
-    files = sorted((ROOT / "configs").glob("*.yaml"))
+    """configs/ (the paper's studies, the examples) and the experiments that live beside their
+    results (results/<study>/config.yaml: `tlac experiment run results/<study>/config.yaml`)."""
+    studies = sorted((ROOT / "results").glob("*/config.yaml"))
+    assert len(studies) >= 17  # the graduation-* experiments
+    files = sorted((ROOT / "configs").glob("*.yaml")) + studies
     assert TINY in files
     for path in files:
         try:
