@@ -239,7 +239,7 @@ for key, value in (
 ):
     CLI_CASES.append(([*T, "--set", f"{key}={value}"], f"'{value}'"))
 CLI_CASES.append(([*T, "--set", "selector=oracle"], "chosen with --selector"))
-CLI_CASES.append(([*T, "--set", "advice_labels=sampled"], "'advice_labels' was removed"))
+CLI_CASES.append(([*T, "--set", "advice_labels=sampled"], "unknown TL-AC setting 'advice_labels'"))
 CLI_CASES += [
     ([*T, "--set", "learning_rate={linear: [1.0e-3, .nan]}"], "learning_rate must be"),
     ([*T, "--set", "learning_rate={linear: [1.0e-3]}"], "learning_rate"),
@@ -419,7 +419,7 @@ def _api_cases() -> list[tuple[str, object, str]]:
         ("n_steps 2.5", tlac(n_steps=2.5), "n_steps"),
         ("batch_size > rollout", tlac(batch_size=999), "batch_size 999 exceeds"),
         ("variant", tlac(variant="exact"), "'exact'"),
-        ("removed setting", tlac(trust="max"), "'trust' was removed"),
+        ("removed setting", tlac(trust="max"), "unknown TL-AC setting 'trust'"),
         ("unknown setting", tlac(wings=2), "'wings'"),
         ("normalize_advantage text", tlac(normalize_advantage="yes"), "true or false"),
         ("preset unknown", tlac(preset="nowhere"), "nowhere"),

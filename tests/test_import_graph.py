@@ -19,7 +19,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("tlac.algorithms", "tlac.selectors"),
     ("tlac.evaluation", "tlac.run", "tlac.teachers.measure", "tlac.teachers.training"),
     ("tlac.experiments",),
-    ("tlac.cli", "tlac.__main__", "tlac.envs"),
+    ("tlac.cli", "tlac.__main__"),
 ]
 """Lowest first. A module belongs to the layer of the longest prefix listed; ``tlac`` itself
 (the package's __init__: the public names) may import anything."""

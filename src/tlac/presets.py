@@ -30,17 +30,8 @@ def preset_names() -> list[str]:
     return sorted(p.name[: -len(".yaml")] for p in files.iterdir() if p.name.endswith(".yaml"))
 
 
-RETIRED_PRESETS = {
-    "past-teachers": "since 2026-11-26 its settings, with SB3 PPO's rollouts, are the default "
-    "preset of a user's environment (presets/default.yaml): leave preset out",
-}
-"""Preset names that existed once, each with what to use instead."""
-
-
 def load_preset(name: str, algo: str) -> dict[str, Any]:
     """The settings of ``algo`` in preset file ``name`` (a fresh dict, safe to modify)."""
-    if name in RETIRED_PRESETS:
-        raise ConfigError(f"preset {name!r} was retired: {RETIRED_PRESETS[name]}")
     if name not in preset_names():
         raise UnknownNameError("preset", name, preset_names())
     text = (resources.files("tlac") / "presets" / f"{name}.yaml").read_text()

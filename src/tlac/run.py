@@ -45,7 +45,6 @@ from tlac.recording import MONITOR_FILE, Recorder, platform_record
 from tlac.selectors import SELECTOR_NAMES
 from tlac.teachers.files import check_teacher_files
 
-SELECTORS = SELECTOR_NAMES  # the high levels a run may use (tlac.selectors)
 RESULT_FILE = "result.json"
 CHECKPOINT = "checkpoint.pt"
 CHECKPOINT_EVERY = 50_000
@@ -129,8 +128,8 @@ class RunSpec:
         if not isinstance(self.steps, int) or isinstance(self.steps, bool) or self.steps <= 0:
             raise ConfigError(f"steps must be a positive integer, got {self.steps!r}")
         check_seed(self.seed)
-        if self.selector not in SELECTORS:
-            raise UnknownNameError("selector", self.selector, SELECTORS)
+        if self.selector not in SELECTOR_NAMES:
+            raise UnknownNameError("selector", self.selector, SELECTOR_NAMES)
         if self.selector != "learned" and self.algo != "tlac":
             raise ConfigError(
                 f"--selector {self.selector} replaces TL-AC's high level; {self.algo} has none "

@@ -63,44 +63,6 @@ VARIANT_DEFAULTS: dict[str, dict[str, Any]] = {
 }
 """What each TL-AC variant sets when the corresponding setting is left at None."""
 
-REMOVED_SETTINGS: dict[str, str] = {
-    "awr_coef": "advantage-weighted imitation was measured no better; the imitation term "
-    "weighs each teacher by its informative trust (distill_coef)",
-    "awr_beta": "it went with awr_coef; the imitation term weighs each teacher by its "
-    "informative trust (distill_coef)",
-    "advice_cost": "it cost training return without helping the student alone; solo "
-    "episodes (solo_budget) hand states to the student",
-    "self_imitation": "measured within the seeds' spread; low_level_data silent trains the "
-    "student on its own returns where no teacher speaks",
-    "self_imitation_value": "it went with self_imitation; low_level_data silent trains the "
-    "student on its own returns where no teacher speaks",
-    "imitate_after_stop": "update_rule per_level stops each level on its own KL instead",
-    "agent_gate": "it slowed the student; the capped high-level entropy bonus "
-    "(ent_cap_high) keeps partial teachers from collapsing",
-    "solo_critic": "the critic always learns from solo episodes",
-    "trust": "the imitation term always weighs the teachers by the high level's softmax "
-    "among them (distill_coef)",
-    "advice_labels": "discrete advice is always each teacher's whole distribution, weighted "
-    "by how much it says (the former 'informative')",
-    "ortho_init_critic": "the critic follows ortho_init_low",
-    "rmsprop_alpha": "rmsprop_tf's smoothing constant is SB3's 0.99",
-    "ent_coef_low": "ent_coef is the low level's bonus (ent_coef_high the high level's)",
-    "norm_clip": "normalize_obs / normalize_reward clip at 10, as SB3's VecNormalize",
-    "imitation_std": "Box imitation uses a Gaussian of 0.1 action-box half-widths",
-    "ucb_c": "selector ucb1 uses c = 1 (scaled by the observed return range)",
-    "keep_best_student": "with solo episodes, predict always deploys the kept student",
-    "solo_greedy": "solo episodes are sampled (the student's policy gradient needs pi_low's "
-    "samples); the kept student is chosen from them",
-}
-"""Settings removed on 2026-11-26 (issue 41: none was used by a preset, and each was measured
-worse or no better; results/graduation-notes.md), each with what replaced it."""
-
-REMOVED_LOW_LEVEL_DATA: dict[str, str] = {
-    "none": "use 'silent' (the same wherever a teacher speaks)",
-    "uninformed": "measured slower than 'silent'; use 'silent'",
-}
-"""Removed values of low_level_data, each with what to use instead."""
-
 
 @dataclass(frozen=True)
 class AdviceSettings:
@@ -372,16 +334,7 @@ class TLACConfig:
 
     @classmethod
     def from_settings(cls, settings: dict[str, Any]) -> TLACConfig:
-        """Build and validate a config; unknown keys or bad values raise ConfigError, and so
-        does a removed setting or choice, naming what replaced it (:data:`REMOVED_SETTINGS`)."""
-        for name in settings:
-            if name in REMOVED_SETTINGS:
-                raise ConfigError(f"TL-AC setting {name!r} was removed: {REMOVED_SETTINGS[name]}")
-        data = settings.get("low_level_data")
-        if isinstance(data, str) and data in REMOVED_LOW_LEVEL_DATA:
-            raise ConfigError(
-                f"low_level_data {data!r} was removed: {REMOVED_LOW_LEVEL_DATA[data]}"
-            )
+        """Build and validate a config; unknown keys or bad values raise ConfigError."""
         return from_mapping(cls, "TL-AC", fold_advice_settings(settings))
 
     @property

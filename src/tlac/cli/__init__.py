@@ -347,7 +347,7 @@ def _cmd_envs(args: argparse.Namespace) -> int:
 def build_parser() -> argparse.ArgumentParser:
     from tlac import __version__
     from tlac.algorithms import algorithm_names
-    from tlac.run import SELECTORS
+    from tlac.selectors import SELECTOR_NAMES
 
     parser = _Parser(
         prog="tlac", description="Reinforcement learning with advice from several teachers (TL-AC)."
@@ -383,7 +383,7 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument(
         "--selector",
         default="learned",
-        choices=SELECTORS,
+        choices=SELECTOR_NAMES,
         help="TL-AC's high level: learned (the paper), random or ucb1 (ablations)",
     )
     train.add_argument(

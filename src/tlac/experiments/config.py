@@ -39,7 +39,7 @@ from tlac.algorithms.common import MAX_SEED
 from tlac.domains import DOMAIN_NAME, domain_names, get_domain, gym_id_hint
 from tlac.errors import ConfigError, TlacError, read_yaml_file
 from tlac.presets import load_preset, preset_names
-from tlac.run import SELECTORS
+from tlac.selectors import SELECTOR_NAMES
 from tlac.validation import Checks
 
 NO_TEACHERS = "none"
@@ -555,7 +555,7 @@ def parse_config(
                 raise f.problem(
                     f"{path}.selector", f"only algorithm 'tlac' has a selector, not {algo!r}"
                 )
-            selector = f.choice(f"{path}.selector", entry["selector"], "selector", SELECTORS)
+            selector = f.choice(f"{path}.selector", entry["selector"], "selector", SELECTOR_NAMES)
         algo_seeds = (
             None if entry.get("seeds") is None else f.seeds(f"{path}.seeds", entry["seeds"])
         )
