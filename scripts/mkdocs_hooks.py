@@ -9,6 +9,7 @@
   folders (``docs/baselines``). The site has no copy of them: such a link becomes its text
   (with the path in code when the text is not the path), and a link to a file that does not
   exist is a warning, so ``mkdocs build --strict`` fails on it as on a broken link in ``docs/``.
+  An image outside ``docs/`` (a figure of results/) becomes its caption and path in the same way.
 
 Links inside ``docs/`` are left to MkDocs, which checks them (and their anchors) itself.
 """
@@ -25,6 +26,7 @@ log = logging.getLogger("mkdocs.hooks.tlac")
 
 INCLUDE = re.compile(r"^<!-- include -->\n\[[^\]]*\]\(([^)\s]+)\)$", re.MULTILINE)
 LINK = re.compile(r"(?<!!)\[([^\]\n]+)\]\(([^)\s]+)\)")
+IMAGE = re.compile(r"!\[([^\]\n]*)\]\(([^)\s]+)\)")
 FENCE = re.compile(r"^(```|~~~).*?^\1[ \t]*$", re.MULTILINE | re.DOTALL)
 EXTERNAL = re.compile(r"^(?:[a-z][a-z0-9+.-]*:|#|/)", re.IGNORECASE)
 
@@ -51,11 +53,28 @@ def _relink(text: str, base: Path, docs: Path, page_dir: Path, where: str) -> st
         shown = os.path.relpath(resolved, docs.parent)
         return label if label.strip("`") in (path, shown, shown + "/") else f"{label} (`{shown}`)"
 
+    def image(match: re.Match[str]) -> str:
+        alt, target = match.groups()
+        if EXTERNAL.match(target):
+            return match.group(0)
+        resolved = Path(os.path.normpath(base / target))
+        if resolved.is_file() and resolved.is_relative_to(docs):
+            if base == page_dir:
+                return match.group(0)  # MkDocs checks it
+            return f"![{alt}]({os.path.relpath(resolved, page_dir)})"
+        if not resolved.exists():
+            log.warning("%s shows %r, which does not exist (%s)", where, target, resolved)
+            return match.group(0)
+        return f"*{alt}* (`{os.path.relpath(resolved, docs.parent)}`)"  # not in the site
+
+    def both(chunk: str) -> str:
+        return LINK.sub(one, IMAGE.sub(image, chunk))
+
     parts, last = [], 0
     for fence in FENCE.finditer(text):  # code blocks are left as they are
-        parts += [LINK.sub(one, text[last : fence.start()]), fence.group(0)]
+        parts += [both(text[last : fence.start()]), fence.group(0)]
         last = fence.end()
-    return "".join([*parts, LINK.sub(one, text[last:])])
+    return "".join([*parts, both(text[last:])])
 
 
 def on_page_markdown(markdown: str, page: Any, config: Any, files: Any) -> str:
