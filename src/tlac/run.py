@@ -414,9 +414,9 @@ def train_run(
 ) -> dict[str, Any]:
     """Train one run described by ``spec`` and write its run folder; returns ``result.json``'s
     content. Every setting is checked before anything is written (:func:`resolve_run`; a
-    :class:`ResolvedRun` is used as it is). An unfinished run of the
-    same settings at ``out_dir`` (no ``result.json``) continues from its last checkpoint when
-    it has one with the training state (TL-AC, DQN-TLQL, AC-Teach), else is redone from scratch; with
+    :class:`ResolvedRun` is used as it is). An unfinished run of the same settings at
+    ``out_dir`` (no ``result.json``) continues from its last checkpoint when it has one with
+    the training state (TL-AC, DQN-TLQL, AC-Teach), else is redone from scratch; with
     ``replace=False`` (``tlac train`` without ``--force``) a finished run or a folder holding
     anything else is refused (:func:`check_out_folder`). The folder is locked while the run
     writes it. ``on_eval(timestep, student_alone_mean, training_return)`` is called after
