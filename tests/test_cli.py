@@ -319,7 +319,7 @@ def test_force_starts_afresh_and_a_rerun_continues(tmp_path, monkeypatch):
             if timestep >= 1000:
                 raise KeyboardInterrupt
 
-        return real(*a[:5], crash, *a[6:], **kw)
+        return real(*a, **{**kw, "on_eval": crash})
 
     monkeypatch.setattr(run_module, "_train_locked", crash_after_a_checkpoint)
     assert main(args) == 130  # interrupted after the checkpoint at 512 steps

@@ -220,7 +220,7 @@ def test_missing_weights_error_names_path_and_command(tmp_path) -> None:
 
 
 def test_train_teacher_rejects_bad_input(tmp_path) -> None:
-    from tlac.teachers.training import train_teacher
+    from tlac.teacher_training import train_teacher
 
     with pytest.raises(UnknownNameError):
         train_teacher("pickplace", 10, 0, tmp_path)

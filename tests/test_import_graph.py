@@ -17,7 +17,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("tlac.recording",),
     ("tlac.domains", "tlac.gym_ids"),
     ("tlac.algorithms", "tlac.selectors"),
-    ("tlac.evaluation", "tlac.run", "tlac.teachers.measure", "tlac.teachers.training"),
+    ("tlac.evaluation", "tlac.run", "tlac.teacher_training"),
     ("tlac.experiments",),
     ("tlac.cli", "tlac.__main__"),
 ]
@@ -103,6 +103,14 @@ def test_no_module_imports_a_layer_above_its_own() -> None:
             if other is not None and other > own and target != "tlac":
                 wrong.append(f"{module} (layer {own}) imports {target} (layer {other})")
     assert not wrong, "\n".join(sorted(wrong))
+
+
+def test_no_layer_names_a_part_of_another_layers_package() -> None:
+    """A layer holds whole packages and modules: none is placed inside another layer's
+    package, where it would be an exception to that package's layer."""
+    prefixes = [p for layer in LAYERS for p in layer]
+    nested = [f"{a} inside {b}" for a in prefixes for b in prefixes if a.startswith(b + ".")]
+    assert not nested, nested
 
 
 def test_every_module_has_a_layer() -> None:

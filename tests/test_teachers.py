@@ -8,11 +8,11 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import tlac.teachers.measure
 import tlac.teachers.wrappers
 from tlac.domains.doorkey.env import make_doorkey_env, region_of
 from tlac.domains.doorkey.planner import DoorKeyOptimalTeacher
 from tlac.errors import ConfigError, TeacherError
+from tlac.evaluation import measure_teacher
 from tlac.teachers import (
     GaussianNoiseTeacher,
     MixedRandomTeacher,
@@ -22,7 +22,6 @@ from tlac.teachers import (
     check_actions,
 )
 from tlac.teachers.base import FunctionTeacher
-from tlac.teachers.measure import measure_teacher
 
 N_SAMPLES = 6000
 SIX = gym.spaces.Discrete(6)
@@ -243,7 +242,7 @@ def test_measure_teacher_on_doorkey_is_reproducible():
         measure_teacher("doorkey", "expert", 1, seed=0)
 
 
-@pytest.mark.parametrize("module", [tlac.teachers.wrappers, tlac.teachers.measure])
+@pytest.mark.parametrize("module", [tlac.teachers.wrappers])
 def test_doctests(module):
     result = doctest.testmod(module, optionflags=doctest.ELLIPSIS)
     assert result.failed == 0

@@ -32,11 +32,12 @@ from tlac.algorithms import NO_ADVICE, get_algorithm
 from tlac.algorithms.common import check_seed, safe_torch_load
 from tlac.domains import (
     Domain,
+    ParsedTeacher,
     get_domain,
     is_gym_domain,
     make_teachers,
     make_vec_env,
-    parse_teacher_spec,
+    parse_teachers,
 )
 from tlac.errors import ConfigError, StorageError, UnknownNameError, read_yaml_file
 from tlac.evaluation import evaluate_student
@@ -108,11 +109,6 @@ class RunSpec:
     of several noisy evaluations overstates the student). Training itself is unchanged."""
     tensorboard: bool = False
 
-    def resolved_teachers(self, domain: Domain) -> list[str]:
-        if self.algo in NO_ADVICE:
-            return []
-        return list(domain.default_teachers) if self.teachers is None else list(self.teachers)
-
     def resolved_preset(self) -> str:
         if self.preset is not None:
             return self.preset
@@ -122,7 +118,8 @@ class RunSpec:
         return domain.presets[self.algo]
 
     def validate(self) -> Domain:
-        """Check every field; returns the domain. Raises :class:`ConfigError` naming the field."""
+        """Check every field; returns the domain. Raises :class:`ConfigError` naming the field.
+        The teachers' names are parsed by :func:`resolve_run`."""
         domain = get_domain(self.env)
         get_algorithm(self.algo)
         if not isinstance(self.steps, int) or isinstance(self.steps, bool) or self.steps <= 0:
@@ -157,8 +154,6 @@ class RunSpec:
                 "keep_best chooses among periodic evaluations: give eval_every (--eval-every) "
                 "and eval_episodes > 0"
             )
-        for name in self.resolved_teachers(domain):
-            parse_teacher_spec(domain, name)
         if is_gym_domain(domain) and self.algo not in NO_ADVICE and not self.teachers:
             raise ConfigError(
                 f"{self.env!r} is a Gymnasium id, with no teachers of its own: give --teachers "
@@ -171,6 +166,61 @@ class RunSpec:
 
 def _is_int(value: Any, minimum: int) -> bool:
     return isinstance(value, int) and not isinstance(value, bool) and value >= minimum
+
+
+@dataclass(frozen=True)
+class ResolvedRun:
+    """One run with every setting worked out (:func:`resolve_run`), handed down to the model
+    and the run folder's writers, which work none out again."""
+
+    spec: RunSpec
+    """The run as given."""
+    domain: Domain
+    teachers: tuple[ParsedTeacher, ...]
+    """The teachers as named (the domain's default set where none were given; none for the
+    algorithms without advice), parsed once."""
+    preset: str
+    """The preset's name (``spec.preset``, or the domain's preset for the algorithm)."""
+    hyperparameters: dict[str, Any]
+    """The preset's settings with the overrides, ``n_envs`` first (1 unless set): what the
+    algorithm is given and config.yaml records."""
+    settings: Any
+    """The algorithm's validated settings, built once (``check_hyperparameters``'s: TL-AC's
+    TLACConfig, ...), or None where it returns none."""
+    trust_pickle: bool = False
+    """Open the SB3 agents named as teachers (``--trust-pickle``; tlac.teachers.files)."""
+
+    @property
+    def teacher_kinds(self) -> list[str]:
+        """The teachers as named (config.yaml's ``teacher_kinds``)."""
+        return [t.spec for t in self.teachers]
+
+    @property
+    def n_envs(self) -> int:
+        return int(self.hyperparameters["n_envs"])
+
+
+def resolve_run(spec: RunSpec, trust_pickle: bool = False) -> ResolvedRun:
+    """The one place where what a user gave (``tlac train``, the Python API, an experiment's
+    run, a resumed run's config.yaml) becomes a run: every field checked, the teachers
+    parsed, the preset chosen and applied with the overrides, the algorithm's settings built
+    and validated. Raises :class:`ConfigError` naming what is wrong, before anything is built
+    or written; ``trust_pickle``: see :class:`ResolvedRun`."""
+    domain = spec.validate()
+    named = domain.default_teachers if spec.teachers is None else spec.teachers
+    kinds = [] if spec.algo in NO_ADVICE else list(named)
+    teachers = tuple(parse_teachers(domain, kinds))
+    check_teacher_files(kinds, trust_pickle)
+    hp = hyperparameters(spec)
+    check = getattr(get_algorithm(spec.algo), "check_hyperparameters", None)
+    settings = None if check is None else check(hp)  # optional (docs/architecture.md)
+    check_in_process(hp)
+    # n_envs first, as config.yaml always had it; the model is told it too (it checks the
+    # VecEnv against it), so that its settings record the environments it ran with
+    hp = {"n_envs": int(hp.get("n_envs", 1)), **{k: v for k, v in hp.items() if k != "n_envs"}}
+    return ResolvedRun(
+        spec, domain, teachers, spec.resolved_preset(), hp, settings, bool(trust_pickle)
+    )
 
 
 def check_in_process(hp: dict[str, Any]) -> None:
@@ -222,7 +272,7 @@ def _clear_run_folder(out: Path) -> None:
             p.unlink()
 
 
-def check_out_folder(out: Path, spec: RunSpec, domain: Domain, replace: bool) -> None:
+def check_out_folder(out: Path, run: ResolvedRun, replace: bool) -> None:
     """Refuse to write a run into ``out`` when that would destroy something: a finished run,
     another run's files, or anything else (unless ``replace``). An unfinished run of the same
     settings is accepted (it continues or is redone). Raises ConfigError naming the folder and
@@ -241,7 +291,7 @@ def check_out_folder(out: Path, spec: RunSpec, domain: Domain, replace: bool) ->
         raise ConfigError(
             f"--out {str(out)!r} holds a finished run; give another folder, or --force to replace it"
         )
-    if not _same_settings(out, spec, domain):
+    if not _same_settings(out, run):
         raise ConfigError(
             f"--out {str(out)!r} is not empty and is not an unfinished run of these settings; "
             "give another folder, or --force to replace its run files"
@@ -293,18 +343,20 @@ def folder_lock(lock_file: Path, busy: str) -> Iterator[None]:
         lock.release()
 
 
-def _same_settings(out: Path, spec: RunSpec, domain: Domain) -> bool:
-    """Whether ``out/config.yaml`` was written for exactly ``spec``."""
+def _same_settings(out: Path, run: ResolvedRun) -> bool:
+    """Whether ``out/config.yaml`` was written for exactly ``run``."""
     try:
         saved = yaml.safe_load((out / "config.yaml").read_text()) or {}
     except (OSError, yaml.YAMLError):
         return False
-    resolved = {"teachers": None, "preset": spec.resolved_preset()}  # as config.yaml has them
+    resolved = ("teachers", "preset")  # config.yaml has them resolved
     return (
         isinstance(saved, dict)
-        and saved.get("teacher_kinds") == spec.resolved_teachers(domain)
-        and saved.get("preset") == resolved["preset"]
-        and all(saved.get(k) == v for k, v in dataclasses.asdict(spec).items() if k not in resolved)
+        and saved.get("teacher_kinds") == run.teacher_kinds
+        and saved.get("preset") == run.preset
+        and all(
+            saved.get(k) == v for k, v in dataclasses.asdict(run.spec).items() if k not in resolved
+        )
     )
 
 
@@ -341,16 +393,16 @@ def _names_domain(env: Any, name: str) -> bool:
         return False
 
 
-def _resumable(out: Path, spec: RunSpec, domain: Domain) -> dict[str, Any] | None:
-    """The run state of an unfinished run of ``spec`` whose checkpoint holds its training
+def _resumable(out: Path, run: ResolvedRun) -> dict[str, Any] | None:
+    """The run state of an unfinished run of ``run`` whose checkpoint holds its training
     state, else None."""
-    if (out / RESULT_FILE).exists() or not _same_settings(out, spec, domain):
+    if (out / RESULT_FILE).exists() or not _same_settings(out, run):
         return None
     return _checkpoint_run_state(out)
 
 
 def train_run(
-    spec: RunSpec,
+    spec: RunSpec | ResolvedRun,
     out_dir: str | Path,
     progress_bar: bool = False,
     on_eval: Any = None,
@@ -360,27 +412,23 @@ def train_run(
     trust_pickle: bool = False,
 ) -> dict[str, Any]:
     """Train one run described by ``spec`` and write its run folder; returns ``result.json``'s
-    content. Every setting is checked before anything is written. An unfinished run of the
-    same settings at ``out_dir`` (no ``result.json``) continues from its last checkpoint when
-    it has one with the training state (TL-AC, DQN-TLQL, AC-Teach), else is redone from scratch; with
+    content. Every setting is checked before anything is written (:func:`resolve_run`; a
+    :class:`ResolvedRun` is used as it is). An unfinished run of the same settings at
+    ``out_dir`` (no ``result.json``) continues from its last checkpoint when it has one with
+    the training state (TL-AC, DQN-TLQL, AC-Teach), else is redone from scratch; with
     ``replace=False`` (``tlac train`` without ``--force``) a finished run or a folder holding
     anything else is refused (:func:`check_out_folder`). The folder is locked while the run
     writes it. ``on_eval(timestep, student_alone_mean, training_return)`` is called after
     every evaluation of the student alone (``training_return``: mean of the recent training
     episodes, teachers included, or ``None`` before the first episode ends). ``fresh``: never
     continue from a checkpoint (``tlac train --force``). ``trust_pickle``: open the SB3
-    agents named as teachers (``--trust-pickle``; tlac.teachers.files)."""
-    domain = spec.validate()
-    check_teacher_files(spec.resolved_teachers(domain), trust_pickle)
-    hp = hyperparameters(spec)
-    check = getattr(get_algorithm(spec.algo), "check_hyperparameters", None)
-    if check is not None:  # optional in the algorithm contract (docs/architecture.md)
-        check(hp)
-    check_in_process(hp)
+    agents named as teachers (``--trust-pickle``; tlac.teachers.files; a ResolvedRun carries
+    its own)."""
+    run = spec if isinstance(spec, ResolvedRun) else resolve_run(spec, trust_pickle)
     if not str(out_dir).strip():
         raise ConfigError("--out '' names no folder; expected the run folder's path")
     out = Path(out_dir)
-    check_out_folder(out, spec, domain, replace)
+    check_out_folder(out, run, replace)
     created = not out.exists()
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -388,20 +436,17 @@ def train_run(
         raise ConfigError(f"cannot write the run folder {str(out)!r}: {exc.strerror}") from None
     try:
         with (
-            storage_errors(out, spec.algo),
+            storage_errors(out, run.spec.algo),
             folder_lock(out / LOCK_FILE, f"--out {str(out)!r} is in use by another tlac process"),
         ):
-            meta = None if fresh else _resumable(out, spec, domain)
+            meta = None if fresh else _resumable(out, run)
             return _train_locked(
-                spec,
+                run,
                 out,
-                domain,
-                hp,
-                progress_bar,
-                on_eval,
-                checkpoint_every,
+                progress_bar=progress_bar,
+                on_eval=on_eval,
+                checkpoint_every=checkpoint_every,
                 meta=meta,
-                trust_pickle=trust_pickle,
             )
     except ConfigError:  # refused when the model was built (its memory): leave no folder
         if created and not (out / CHECKPOINT).exists():
@@ -438,30 +483,21 @@ def resume_run(
     fields = {f.name for f in dataclasses.fields(RunSpec)}
     spec = RunSpec(**{k: v for k, v in config.items() if k in fields})
     spec.teachers = config.get("teacher_kinds", spec.teachers)
-    try:
-        domain = spec.validate()
-        hp = hyperparameters(spec)
-        check = getattr(get_algorithm(spec.algo), "check_hyperparameters", None)
-        if check is not None:  # the model comes from the checkpoint: refuse what it would ignore
-            check(hp)
-        check_in_process(hp)
+    try:  # the model comes from the checkpoint: its settings are checked all the same
+        run = resolve_run(spec, trust_pickle)
     except ConfigError as exc:  # config.yaml edited by hand: say which file
         raise ConfigError(f"{str(out / 'config.yaml')!r}: {exc}") from None
-    check_teacher_files(spec.resolved_teachers(domain), trust_pickle)
     with (
         storage_errors(out, spec.algo),
         folder_lock(out / LOCK_FILE, f"{str(out)!r} is in use by another tlac process"),
     ):
         return _train_locked(
-            spec,
+            run,
             out,
-            domain,
-            hp,
-            progress_bar,
-            on_eval,
-            checkpoint_every,
+            progress_bar=progress_bar,
+            on_eval=on_eval,
+            checkpoint_every=checkpoint_every,
             meta=meta,
-            trust_pickle=trust_pickle,
         )
 
 
@@ -549,18 +585,16 @@ def _keep_monitor_rows(monitor: Path, episodes: Path) -> None:
 
 
 def _train_locked(
-    spec: RunSpec,
+    run: ResolvedRun,
     out: Path,
-    domain: Domain,
-    hp: dict[str, Any],
     progress_bar: bool,
     on_eval: Any,
     checkpoint_every: int | None = None,
     meta: dict[str, Any] | None = None,
-    trust_pickle: bool = False,
 ) -> dict[str, Any]:
     """The run itself, the folder locked; ``meta``: the run state of the checkpoint to
-    continue from (None: from scratch); ``trust_pickle``: open agents named as teachers."""
+    continue from (None: from scratch)."""
+    spec, domain, hp = run.spec, run.domain, run.hyperparameters
     resume = meta is not None
     if meta is not None:
         for name in ("episodes.csv", "eval.csv", "progress.csv", "teacher_usage.csv"):
@@ -569,19 +603,14 @@ def _train_locked(
     else:
         meta = {}
         _clear_run_folder(out)
-    # the model is told n_envs too (it checks the VecEnv against it), so that its settings,
-    # written below, record the environments it ran with
-    n_envs = int(hp.get("n_envs", 1))
-    hp = {"n_envs": n_envs, **{k: v for k, v in hp.items() if k != "n_envs"}}
 
     # small networks: one thread is fastest, and parallel runs must not oversubscribe cores
     torch.set_num_threads(1)
     torch.manual_seed(spec.seed)
     np.random.seed(spec.seed)
     probe_env = domain.make_env()
-    names = spec.resolved_teachers(domain)
-    teachers = make_teachers(domain, names, probe_env, spec.seed, trust_pickle)
-    venv = make_vec_env(domain, n_envs, spec.seed, out / "episodes.csv")
+    teachers = make_teachers(domain, list(run.teachers), probe_env, spec.seed, run.trust_pickle)
+    venv = make_vec_env(domain, run.n_envs, spec.seed, out / "episodes.csv")
     recorder = Recorder(
         out,
         [t.name for t in teachers] + ["agent"],
@@ -594,15 +623,13 @@ def _train_locked(
         config = {
             **dataclasses.asdict(spec),
             "teachers": [t.name for t in teachers],
-            "teacher_kinds": spec.resolved_teachers(domain),
-            "preset": spec.resolved_preset(),
+            "teacher_kinds": run.teacher_kinds,
+            "preset": run.preset,
             "hyperparameters": hp,
         }
         (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
 
     algo_cls = get_algorithm(spec.algo)
-    if spec.algo == "tlac":
-        hp = {**hp, "preset": None}  # hp is the resolved preset already
     # the algorithms whose checkpoints hold the training state (save(training_state=True))
     exact = bool(getattr(algo_cls, "exact_resume", False))
     eval_rows: list[tuple[int, float, float, int]] = []
@@ -613,7 +640,7 @@ def _train_locked(
         recorder.load_window_state(meta["recorder"])
         eval_rows = [tuple(r) for r in meta["eval_rows"]]  # type: ignore[misc]
     else:
-        model = algo_cls(env=venv, teachers=teachers, seed=spec.seed, recorder=recorder, **hp)
+        model = _new_model(run, algo_cls, venv, teachers, recorder)
         eval_file.write_text("timestep,mean_return,std_return,episodes\n")
         settings = getattr(model, "config", None)
         if dataclasses.is_dataclass(settings):  # every setting as resolved, defaults included
@@ -714,6 +741,18 @@ def _train_locked(
     for name in (CHECKPOINT, "checkpoint.zip", *_model_files(out, BEST_MODEL)):
         (out / name).unlink(missing_ok=True)
     return result
+
+
+def _new_model(
+    run: ResolvedRun, algo_cls: Any, venv: Any, teachers: list[Any], recorder: Any
+) -> Any:
+    """The run's model, from its settings as :func:`resolve_run` built them where the
+    algorithm takes them (``from_config``), else from its hyperparameters."""
+    seed = run.spec.seed
+    if run.settings is not None and hasattr(algo_cls, "from_config"):
+        return algo_cls.from_config(run.settings, venv, teachers, seed, recorder)
+    hp = run.hyperparameters
+    return algo_cls(env=venv, teachers=teachers, seed=seed, recorder=recorder, **hp)
 
 
 def _model_files(out: Path, stem: str) -> list[str]:

@@ -381,7 +381,32 @@ class ACTeach(SB3Compat):
         recorder: Recorder | None = None,
         **hyperparameters: Any,
     ):
-        self.config = self.check_hyperparameters(hyperparameters)
+        self._start(self.check_hyperparameters(hyperparameters), env, teachers, seed, recorder)
+
+    @classmethod
+    def from_config(
+        cls,
+        config: ACTeachConfig,
+        env: VecEnv | None,
+        teachers: list[Any] | None = None,
+        seed: int = 0,
+        recorder: Recorder | None = None,
+    ) -> ACTeach:
+        """A model of settings already validated (:meth:`check_hyperparameters`'s, as
+        :func:`tlac.run.resolve_run` builds them once)."""
+        model = cls.__new__(cls)
+        model._start(config, env, teachers, seed, recorder)
+        return model
+
+    def _start(
+        self,
+        config: ACTeachConfig,
+        env: VecEnv | None,
+        teachers: list[Any] | None,
+        seed: int,
+        recorder: Recorder | None,
+    ) -> None:
+        self.config = config
         seed = check_seed(seed)
         self.teachers = list(teachers or [])
         self.seed, self.recorder, self.env = seed, recorder, env

@@ -178,9 +178,38 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             torch_threads,
         )
         config = TLACConfig.from_settings(resolve_settings(env, preset, settings))
+        self._start(config, env, teachers, seed, recorder)
+
+    @classmethod
+    def from_config(
+        cls,
+        config: TLACConfig,
+        env: Any,
+        teachers: Sequence[Any] = (),
+        seed: int | None = None,
+        recorder: Recorder | None = None,
+    ) -> TLAC:
+        """A model of settings already worked out and validated: ``tlac train`` builds a
+        run's TLACConfig once (:func:`tlac.run.resolve_run`) and hands it here. SB3's
+        arguments keep their defaults; ``config.n_envs`` must be ``env``'s number of
+        environments where ``env`` is already made."""
+        check_made_env_settings(env, {"n_envs": config.n_envs, "vec_env": config.vec_env})
+        model = cls.__new__(cls)
+        model.obs_policy = ObsPolicy()
+        model._start(config, env, teachers, seed, recorder)
+        return model
+
+    def _start(
+        self,
+        config: TLACConfig,
+        env: Any,
+        teachers: Sequence[Any],
+        seed: int | None,
+        recorder: Recorder | None,
+    ) -> None:
         seed = random_seed() if seed is None else check_seed(seed)  # None: as SB3, a random one
-        if torch_threads is not None:  # before the initialisation: its orthogonal matrices (QR)
-            torch.set_num_threads(torch_threads)  # differ with the number of threads
+        if self.torch_threads is not None:  # before the initialisation: its orthogonal
+            torch.set_num_threads(self.torch_threads)  # matrices (QR) differ with the threads
         torch.manual_seed(seed)  # the networks' initialisation
         self._setup(config, seed, env, teachers, recorder)
 

@@ -114,8 +114,7 @@ def _check_teacher_names(overrides: dict[str, Any], names: list[str]) -> None:
 
 def _cmd_train(args: argparse.Namespace) -> int:
     from tlac.algorithms import NO_ADVICE
-    from tlac.run import RunSpec, load_run_config, resume_run, train_run
-    from tlac.teachers.files import check_teacher_files
+    from tlac.run import RunSpec, load_run_config, resolve_run, resume_run, train_run
 
     if args.resume is not None:
         config = load_run_config(args.resume)
@@ -155,17 +154,16 @@ def _cmd_train(args: argparse.Namespace) -> int:
         tensorboard=args.tensorboard,
         keep_best=args.eval_every is not None and not args.keep_last,
     )
-    domain = spec.validate()
-    check_teacher_files(spec.resolved_teachers(domain), args.trust_pickle)
+    run = resolve_run(spec, args.trust_pickle)
     if args.out is not None and not args.out.strip():
         raise ConfigError("--out '' names no folder; expected the run folder's path")
     # domain.name, not spec.env: a domain given as path/to/file.py:ATTR must not become a path
     out = (
         Path(args.out)
         if args.out is not None
-        else Path("runs") / f"{domain.name}__{spec.algo}__seed{spec.seed}"
+        else Path("runs") / f"{run.domain.name}__{spec.algo}__seed{spec.seed}"
     )
-    names = spec.resolved_teachers(domain)
+    names = run.teacher_kinds
     _check_teacher_names(spec.overrides, names)
     print(
         f"tlac train: {spec.algo} on {spec.env}, teachers [{', '.join(names) or 'none'}], "
@@ -182,7 +180,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
         )
 
     result = train_run(
-        spec,
+        run,
         out,
         progress_bar=not args.no_progress,
         on_eval=report_eval,

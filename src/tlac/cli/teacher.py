@@ -78,7 +78,7 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def _train(args: argparse.Namespace) -> int:
-    from tlac.teachers.training import train_teacher
+    from tlac.teacher_training import train_teacher
 
     if args.time_limit is not None and not 0 < args.time_limit < math.inf:  # NaN too
         raise ConfigError(
@@ -109,7 +109,7 @@ def _train(args: argparse.Namespace) -> int:
 def _eval(args: argparse.Namespace) -> int:
     from tlac.domains import get_domain
     from tlac.errors import UnknownNameError
-    from tlac.teachers.measure import measure_teacher
+    from tlac.evaluation import measure_teacher
 
     domain = get_domain(args.env)
     names = (

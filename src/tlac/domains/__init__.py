@@ -24,6 +24,7 @@ import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 import gymnasium as gym
 import numpy as np
@@ -309,16 +310,39 @@ def parse_teacher_spec(domain: Domain, spec: str) -> tuple[str, float | None]:
     return name, prob
 
 
+class ParsedTeacher(NamedTuple):
+    """A teacher as a run names it (``spec``: ``optimal:0.7``, ``path/to/file.py:NAME``...),
+    parsed once (:func:`parse_teachers`): the teacher's ``name`` and its ``prob``."""
+
+    spec: str
+    name: str
+    prob: float | None
+
+
+def parse_teachers(domain: Domain, specs: list[str]) -> list[ParsedTeacher]:
+    """Each of ``specs`` parsed (:func:`parse_teacher_spec`); an unknown teacher or a bad
+    probability is a ConfigError naming it."""
+    return [ParsedTeacher(spec, *parse_teacher_spec(domain, spec)) for spec in specs]
+
+
 def make_teachers(
-    domain: Domain, names: list[str], env: gym.Env, seed: int, trust_pickle: bool = False
+    domain: Domain,
+    names: list[str] | list[ParsedTeacher],
+    env: gym.Env,
+    seed: int,
+    trust_pickle: bool = False,
 ) -> list[Teacher]:
     """Build the named teachers of ``domain`` (``NAME`` or ``NAME:P``, see
-    :func:`parse_teacher_spec`; or named by file, an agent's pickles opened only with
-    ``trust_pickle``); duplicates get distinct seeds and names."""
-    parsed = [parse_teacher_spec(domain, n) for n in names]
-    labels = unique_names([_teacher_label(n) for n in names])
+    :func:`parse_teacher_spec`, or as :func:`parse_teachers` parsed them; or named by file,
+    an agent's pickles opened only with ``trust_pickle``); duplicates get distinct seeds and
+    names."""
+    parsed = [
+        n if isinstance(n, ParsedTeacher) else ParsedTeacher(n, *parse_teacher_spec(domain, n))
+        for n in names
+    ]
+    labels = unique_names([_teacher_label(p.spec) for p in parsed])
     teachers: list[Teacher] = []
-    for i, ((name, prob), label) in enumerate(zip(parsed, labels, strict=True)):
+    for i, ((_, name, prob), label) in enumerate(zip(parsed, labels, strict=True)):
         teacher_seed = seed + 1000 * (i + 1)
         found = teacher_file(name)
         if found is None:

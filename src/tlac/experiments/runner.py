@@ -49,7 +49,7 @@ from tlac.errors import ConfigError
 from tlac.experiments.archive import RunStore
 from tlac.experiments.config import ExperimentConfig, domain_file
 from tlac.experiments.grid import ERROR_FILE, RUNS_DIR, GridRun, expand_grid, run_dir
-from tlac.run import RESULT_FILE, RunSpec, atomic_write_text, folder_lock
+from tlac.run import RESULT_FILE, RunSpec, atomic_write_text, folder_lock, resolve_run
 
 EXPERIMENT_FILE = "experiment.yaml"
 TEACHERS_FILE = "teachers.json"
@@ -220,19 +220,12 @@ def _grid_session(
 
 
 def check_grid_settings(config: ExperimentConfig) -> None:
-    """Every run's spec and hyperparameters are valid (the checks ``train_run`` makes first),
-    so that a typo in one algorithm's overrides stops the grid before any run starts."""
-    from tlac.algorithms import get_algorithm
-    from tlac.run import check_in_process, hyperparameters
-
+    """Every run's spec and hyperparameters are valid (:func:`tlac.run.resolve_run`, what
+    ``train_run`` does first), so that a typo in one algorithm's overrides stops the grid
+    before any run starts."""
     for r in expand_grid(config):
         try:
-            r.spec.validate()
-            check = getattr(get_algorithm(r.spec.algo), "check_hyperparameters", None)
-            hp = hyperparameters(r.spec)
-            if check is not None:
-                check(hp)
-            check_in_process(hp)
+            resolve_run(r.spec)
         except ConfigError as exc:
             raise ConfigError(f"{config.source}: run {r.name}: {exc}") from None
 

@@ -1,7 +1,7 @@
 """A shipped SAC actor used as the "optimal" Hopper teacher (paper, appendix A.2.1).
 
 The paper obtains its Hopper teacher by training SAC for 1e6 steps. We train it with
-stable-baselines3 (``tlac teacher train``, see :mod:`tlac.teachers.training`) and ship only
+stable-baselines3 (``tlac teacher train``, see :mod:`tlac.teacher_training`) and ship only
 the actor's weights: a small ``.pt`` state dict plus a ``.json`` metadata file under
 ``src/tlac/data/teachers/``. :class:`SACActorTeacher` rebuilds the actor's deterministic path
 (MLP latent -> ``mu`` -> optional clip -> ``tanh`` -> rescale to the action box), which is
