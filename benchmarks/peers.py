@@ -69,7 +69,7 @@ GRADIENT_STEPS_PER_ROUND = 320  # SB3 PPO's 10 epochs x 2048 / 64
 
 DOORKEY_CASES: dict[str, list[str]] = {
     "DoorKey+1optimal-2random": ["optimal", "random", "random"],
-    "DoorKey+3noisy": ["ppo-noisy", "ppo-noisy", "ppo-noisy"],
+    "DoorKey+3noisy": ["ppo-noisy20", "ppo-noisy20", "ppo-noisy20"],
     "DoorKey+L-R": ["ppo-L", "ppo-R"],
 }
 """DoorKey 7x7 cases (issue 45): the domain's named teachers (the planner and random ones, and

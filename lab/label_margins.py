@@ -7,7 +7,7 @@ compares the student's greedy action with the reference's and measures the margi
 (DoorKey's noisy teacher: 1/3 on the base's action, 2/15 on each other) agrees with its base
 in most states but by a few hundredths, and its greedy path loops wherever one margin flips.
 
-    python lab/label_margins.py --teachers ppo-noisy,ppo-noisy,ppo-noisy --steps 100000
+    python lab/label_margins.py --teachers ppo-noisy20,ppo-noisy20,ppo-noisy20 --steps 100000
 
 results/graduation-notes.md, section 29, has its figures.
 """
@@ -52,7 +52,7 @@ def path_margins(model: TLAC, reference, env, episodes: int, seed: int) -> dict[
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--teachers", default="ppo-noisy,ppo-noisy,ppo-noisy")
+    parser.add_argument("--teachers", default="ppo-noisy20,ppo-noisy20,ppo-noisy20")
     parser.add_argument("--reference", default="ppo", help="the teachers' base")
     parser.add_argument("--steps", type=int, default=100_000)
     parser.add_argument("--seed", type=int, default=0)

@@ -422,7 +422,7 @@ def test_domain_registry_and_teachers(env):
     assert domain is DOMAIN
     assert domain.teacher_names == (
         "optimal", "good", "noisy", "random", "L", "R",
-        "ppo", "ppo-good", "ppo-noisy", "ppo-L", "ppo-R",
+        "ppo", "ppo-good", "ppo-noisy", "ppo-L", "ppo-R", "ppo-good80", "ppo-noisy20",
     )  # fmt: skip
     assert domain.default_teachers == ("optimal", "random", "random")
     assert set(domain.presets) == {"tlac", "a2c", "ppo", "dqn-tlql", "ac-teach"}
@@ -433,6 +433,20 @@ def test_domain_registry_and_teachers(env):
         check_actions(t.name, t.predict(batch), env.action_space, 5)
     with pytest.raises(UnknownNameError, match="'best'"):
         DOMAIN.make_teacher("best", env, 0)
+
+
+def test_good_and_noisy_teachers_take_their_bases_action_with_their_share(env):
+    """The appendix's shares (0.8, 0.2) on the scripted teacher and as ppo-good80 / ppo-noisy20;
+    ppo-good / ppo-noisy calibrated to the paper's returns on our stronger PPO agent."""
+    shares = {
+        "good": 0.8, "noisy": 0.2, "ppo-good": 0.38, "ppo-noisy": 0.12,
+        "ppo-good80": 0.8, "ppo-noisy20": 0.2,
+    }  # fmt: skip
+    for name, share in shares.items():
+        teacher = DOMAIN.make_teacher(name, env, 0)
+        assert isinstance(teacher, MixedRandomTeacher) and teacher.name == name
+        assert teacher.p_teacher == share, name
+        assert teacher.base.name == name  # the base is built under the derived teacher's name
 
 
 def test_partial_teachers_cover_their_rooms(env):
