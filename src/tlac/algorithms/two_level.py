@@ -37,6 +37,7 @@ from tlac.algorithms.advice import (
     ask_gate,
     mask_logits,
     per_teacher,
+    priced_logits,
 )
 from tlac.algorithms.callbacks import LearnCallbacks, SB3Compat, check_sb3_arguments
 from tlac.algorithms.common import (
@@ -212,7 +213,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         terms = cfg.advice
         self.limited_advice = terms.limits and self.n_teachers > 0
         if self.n_teachers or terms.teacher_cost or terms.availability:
-            if terms.ask in ("importance", "uncertainty") and not self.discrete:
+            if terms.ask in ("importance", "uncertainty", "mistake") and not self.discrete:
                 raise ConfigError(
                     f"TL-AC setting ask {terms.ask!r} reads the student's action logits and "
                     "needs discrete actions; use always or early with Box actions"
@@ -294,9 +295,20 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             self._resample_sde_noise()
         vec_normalize = unwrap_vec_normalize(self.env)  # the user's: teachers get raw observations
         limits = self.advice if self.limited_advice else None
+        rule = cfg.advice.ask
         if limits is not None:
             ro.askable = np.zeros((T, E, self.n_teachers), dtype=bool)
             ro.high_mask = np.zeros((T, E, self.n_teachers), dtype=bool)
+            if rule == "learned":  # the price of each answer, charged in the high level's logits
+                ro.high_shift = np.zeros((T, E, self.n_teachers), dtype=np.float32)
+                steps_left = self._advice_steps_left()
+                limits.start_pacing(steps_left)
+                pacing = (limits.spent, limits.remaining, steps_left)
+            if rule == "mistake":
+                ro.corrected = np.zeros((T, E), dtype=bool)
+        # ask learned and mistake: labels come only from the teacher that acted (learned: the
+        # high level's ask; mistake: where it disagreed with the student), none from the others
+        labels_from_gate = rule not in ("learned", "mistake")
         for t in range(T):
             if cfg.use_sde and cfg.sde_sample_freq > 0 and t > 0 and t % cfg.sde_sample_freq == 0:
                 self._resample_sde_noise()
@@ -311,8 +323,11 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 choices = self.selector.select(high_logits, self._episode_starts)  # line 14
             else:  # only teachers present, affordable and asked can be chosen
                 limits.draw_presence(self._episode_starts)
-                asks = ask_gate(cfg.advice.ask, low_out, cfg.advice.ask_threshold)
+                asks = ask_gate(rule, low_out, cfg.advice.ask_threshold)
                 can = limits.can_answer(asks)
+                if ro.high_shift is not None:  # the behaviour policy pays the price of asking
+                    ro.high_shift[t] = limits.shift()
+                    high_logits = priced_logits(high_logits, ro.high_shift[t])
                 choices = self.selector.select(mask_logits(high_logits, can), self._episode_starts)
             if self.solo is not None:  # graduate variant: some episodes are the student's alone
                 solo = self.solo.start(
@@ -327,14 +342,17 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 ro.solo[t] = solo
             if limits is not None:  # the acting teachers' answers, paid for
                 choices, high_mask = self._charge_acting(limits, choices, can)
-                ro.askable[t] = limits.present & asks[:, None]
+                ro.askable[t] = limits.present & (asks & labels_from_gate)[:, None]
                 ro.high_mask[t] = high_mask
                 high_logits = mask_logits(high_logits, high_mask)
             actions = self._sample_low(low_out, latent)  # line 16 (kept where the agent acts)
             if self.greedy_solo:
                 actions = np.where(ro.solo[t][:, None] > 0, low_out, actions)
             teacher_obs = self._last_obs if vec_normalize is None else original_obs(vec_normalize)
+            own = actions.copy() if ro.corrected is not None else None  # the student's intent
             actions = self._apply_teachers(choices, teacher_obs, actions)  # line 18
+            if own is not None:  # mistake correcting: the teacher checked the student's action
+                ro.corrected[t] = (choices < self.n_teachers) & (actions != own)
 
             clipped_actions = self._to_env_actions(actions)  # (SB3's name, for callbacks)
             new_obs, rewards, dones, infos = self.env.step(clipped_actions)  # line 19
@@ -372,6 +390,9 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             self._episode_starts = np.asarray(dones, dtype=bool)
             if stopped:  # as SB3: no update on a rollout that a callback cut short
                 return None
+        if ro.high_shift is not None:  # the price follows the spending (advice.paced_price)
+            spent0, remaining0, steps_left0 = pacing
+            limits.repace(limits.spent - spent0, T * E, remaining0, steps_left0)
         last_values = self._act_heads(self._last_obs)[2]
         ro.advantages, ro.returns = compute_gae(
             ro.rewards, ro.values, ro.dones, last_values, cfg.gamma, cfg.gae_lambda
@@ -381,6 +402,14 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         if sb3 is not None:
             sb3.rollout_end(self._sb3_locals(locals(), ro, T))
         return ro
+
+    def _advice_steps_left(self) -> int:
+        """The steps left in the learn call in progress (its schedules' horizon), to pace the
+        price of answers over; 0 outside learn."""
+        if self._schedule is None:
+            return 0
+        origin, horizon = self._schedule
+        return max(origin + horizon - self.num_timesteps, 0)
 
     def _limit_leaders(self, limits: AdviceLedger) -> None:
         """Teacher-led episodes under limited advice: once the budget is spent, every episode
@@ -426,6 +455,8 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         acted in a row labels it with the answer already paid for."""
         assert self.advice is not None
         paid = acting_teachers(data["choices"].numpy(), self.n_teachers)
+        if "corrected" in data:  # mistake correcting: a label only where the teacher disagreed
+            paid &= data["corrected"].numpy()[:, None]
         wanted = data["askable"].numpy() | paid
         return torch.from_numpy(self.advice.charge(wanted, paid))
 
@@ -468,7 +499,12 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 data["obs"] if unwrap_vec_normalize(self.env) is None else data["teacher_obs"],
                 labelled,
             )
-            self.advice_buffer.add(data["obs"], advice, labelled)
+            # only the states some teacher labelled: a state no teacher was asked in would
+            # dilute the imitation term's mean (it weighs 0) and push asked states out of the
+            # ring; under a budget of 1e3 answers over 1e5 steps they would be 99% of it
+            keep = labelled.any(dim=1)
+            if bool(keep.any()):
+                self.advice_buffer.add(data["obs"][keep], advice[:, keep], labelled[keep])
             if cfg.low_level_data == "silent":  # where no teacher asked says anything
                 information = (
                     losses.advice_information(advice) if self.discrete else advice[..., -1]
@@ -499,6 +535,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         # them, and the replayed rows (states, advice) of every minibatch the update may take
         x = self._update_rows(data["obs"] if self.normalizer is None else data["net_obs"])
         replay = None
+        imitates = imitates and len(self.advice_buffer) > 0  # limited advice: none asked yet
         if imitates:
             replay = self._replay_plan(cfg.n_epochs * -(-n // cfg.batch_size))
         cols = self._narrowed_columns(x, replay)
@@ -655,6 +692,8 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             x[idx] if replayed is None else torch.cat([x[idx], self._replayed_x(replay, replayed)])
         )
         high_logits, low_out, values, latent = (h[:b] for h in heads)
+        if "high_shift" in data:  # ask learned: the price each answer had in this row
+            high_logits = priced_logits(high_logits, data["high_shift"][idx])
         if "high_mask" in data:  # limited advice: the choices the high level had in each row
             high_logits = mask_logits(high_logits, data["high_mask"][idx])
         # low level, Eq. 3: log pi_low(a|s) A(s, a) on the EXECUTED actions
