@@ -257,6 +257,26 @@ def acting_teachers(choices: np.ndarray, n_teachers: int) -> np.ndarray:
     return rows
 
 
+def corrected_rows(
+    choices: np.ndarray, own: np.ndarray, executed: np.ndarray, n_teachers: int
+) -> np.ndarray:
+    """``(n,)`` bool, mistake correcting (Torrey & Taylor 2013): the rows where a teacher was
+    asked to check the student's action (the high level chose it, ``choices < K``) and
+    disagreed: the action it gave (``executed``) is not the one the student meant (``own``, its
+    sample). Only there is its answer stored as a label; where it agrees, the action is the
+    student's own.
+
+    >>> choices = np.array([0, 1, 2, 0])            # two teachers; 2 is the agent
+    >>> own, executed = np.array([1, 0, 1, 0]), np.array([0, 0, 1, 0])
+    >>> corrected_rows(choices, own, executed, 2).tolist()
+    [True, False, False, False]
+    """
+    differs = np.asarray(own) != np.asarray(executed)
+    if differs.ndim > 1:  # Box actions: any coordinate
+        differs = differs.reshape(len(differs), -1).any(axis=1)
+    return (np.asarray(choices) < n_teachers) & differs
+
+
 def per_teacher(
     values: dict[str, float], names: list[str], setting: str, default: float
 ) -> np.ndarray:

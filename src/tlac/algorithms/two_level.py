@@ -35,6 +35,7 @@ from tlac.algorithms.advice import (
     AdviceLedger,
     acting_teachers,
     ask_gate,
+    corrected_rows,
     mask_logits,
     per_teacher,
     priced_logits,
@@ -248,13 +249,19 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self.greedy_solo = (
             not self.discrete and bool(cfg.solo_budget) and cfg.low_level_data == "silent"
         )
+        # ask learned on a budget: the high level's choices are the only asks. A teacher-led
+        # episode asks in every state whatever the price (on CartPole, 500 answers an episode:
+        # the audition's first two would spend a budget of 1e3), so there is none
+        teacher_share = cfg.teacher_episodes
+        if terms.ask == "learned" and terms.advice_budget is not None:
+            teacher_share = 0.0
         if cfg.solo_budget and self.n_teachers:
             self.solo = SoloEpisodes(
                 self.n_envs,
                 cfg.solo_budget,
                 self.seed,
                 n_teachers=self.n_teachers,
-                teacher_share=cfg.teacher_episodes,
+                teacher_share=teacher_share,
             )
         self.deployed: StudentSnapshot | None = None  # None: predict uses the live weights
         self._sde_noise: np.ndarray | None = None
@@ -352,7 +359,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             own = actions.copy() if ro.corrected is not None else None  # the student's intent
             actions = self._apply_teachers(choices, teacher_obs, actions)  # line 18
             if own is not None:  # mistake correcting: the teacher checked the student's action
-                ro.corrected[t] = (choices < self.n_teachers) & (actions != own)
+                ro.corrected[t] = corrected_rows(choices, own, actions, self.n_teachers)
 
             clipped_actions = self._to_env_actions(actions)  # (SB3's name, for callbacks)
             new_obs, rewards, dones, infos = self.env.step(clipped_actions)  # line 19
@@ -449,16 +456,39 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 self.solo.leader[refused] = -1
         return choices, can | granted
 
-    def _charge_labels(self, data: dict[str, torch.Tensor]) -> torch.Tensor:
+    def _charge_labels(
+        self, data: dict[str, torch.Tensor], paid_only: bool = False
+    ) -> torch.Tensor:
         """``(n, K)`` bool: the teachers asked for a label in each row of the rollout: those
         present where the student asked, while the budget holds (rollout order); a teacher that
-        acted in a row labels it with the answer already paid for."""
+        acted in a row labels it with the answer already paid for. ``paid_only``: only those."""
         assert self.advice is not None
         paid = acting_teachers(data["choices"].numpy(), self.n_teachers)
         if "corrected" in data:  # mistake correcting: a label only where the teacher disagreed
             paid &= data["corrected"].numpy()[:, None]
-        wanted = data["askable"].numpy() | paid
+        wanted = paid if paid_only else data["askable"].numpy() | paid
         return torch.from_numpy(self.advice.charge(wanted, paid))
+
+    def _store_labels(
+        self,
+        data: dict[str, torch.Tensor],
+        labelled: torch.Tensor,
+        advice: torch.Tensor | None = None,
+    ) -> None:
+        """Add to the advice buffer the rollout's states that some teacher labelled, with their
+        labels (``advice``: asked here where None). Only those: a state no teacher was asked in
+        would dilute the imitation term's mean (it weighs 0) and push asked states out of the
+        ring (under a budget of 1e3 answers over 1e5 steps, 99% of it)."""
+        assert self.advice_buffer is not None
+        keep = labelled.any(dim=1)
+        if not bool(keep.any()):
+            return
+        if advice is None:
+            obs = data["obs"] if unwrap_vec_normalize(self.env) is None else data["teacher_obs"]
+            advice = self._advice_on(obs[keep], labelled[keep])
+            self.advice_buffer.add(data["obs"][keep], advice, labelled[keep])
+            return
+        self.advice_buffer.add(data["obs"][keep], advice[:, keep], labelled[keep])
 
     def _sb3_locals(self, local_vars: dict[str, Any], ro: Rollout, n_steps: int) -> dict[str, Any]:
         """:meth:`collect`'s variables, with the names of SB3's ``collect_rollouts`` that they
@@ -493,6 +523,10 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         silent = None
         if self.advice is not None and not self.limited_advice:  # counted only
             self.advice.count_unlimited(data["choices"].numpy(), imitates)
+        if self.advice_buffer is not None and self.limited_advice and not imitates:
+            # nothing is copied now (the audition, a weaned copy): no label is asked, but the
+            # answers already paid for (the teachers that acted) are kept, at no cost
+            self._store_labels(data, self._charge_labels(data, paid_only=True))
         if imitates and self.limited_advice:
             labelled = self._charge_labels(data)
             advice = self._advice_on(
@@ -502,9 +536,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             # only the states some teacher labelled: a state no teacher was asked in would
             # dilute the imitation term's mean (it weighs 0) and push asked states out of the
             # ring; under a budget of 1e3 answers over 1e5 steps they would be 99% of it
-            keep = labelled.any(dim=1)
-            if bool(keep.any()):
-                self.advice_buffer.add(data["obs"][keep], advice[:, keep], labelled[keep])
+            self._store_labels(data, labelled, advice)
             if cfg.low_level_data == "silent":  # where no teacher asked says anything
                 information = (
                     losses.advice_information(advice) if self.discrete else advice[..., -1]
