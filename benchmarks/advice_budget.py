@@ -19,8 +19,9 @@ after the audition has spent a budget of 1e3. ``ask learned`` on a budget sets i
 Every run is a JSON file under ``--out``/runs, skipped when present, so a killed grid resumes
 where it stopped. ``--phase report`` (also run after every grid) writes ``report.md`` (the
 student alone at the end and the answers used, mean +- std over seeds) and one figure per case
-(``<case>.png``: the student alone against the budget, one line per rule and availability,
-PPO alone dashed; beside it the answers used).
+(``<case>.png``: the student alone against the steps, one line per rule, budget and
+availability, PPO alone dotted; beside it the answers used; with several budgets, the student
+alone at the end against the budget).
 
     .venv/bin/python benchmarks/advice_budget.py --envs CartPole-v1 --budgets 1e3 --seeds 0
     .venv/bin/python benchmarks/advice_budget.py --phase report
@@ -191,59 +192,73 @@ def case_table(case: str, by_key: dict[tuple, list[dict[str, Any]]]) -> list[str
     return lines
 
 
+def _mean_curve(rows: list[list[list[float]]], column: int) -> tuple[list[float], list[float]]:
+    """Steps and the seeds' mean of ``column`` at each evaluation they all reached."""
+    n = min(len(r) for r in rows)
+    steps = [rows[0][i][0] for i in range(n)]
+    return steps, [float(np.mean([r[i][column] for r in rows])) for i in range(n)]
+
+
 def plot_case(out: Path, case: str, by_key: dict[tuple, list[dict[str, Any]]]) -> None:
+    """``<case>.png``: the student alone (greedy) against the environment steps, per rule,
+    budget and availability (seed means; PPO alone dotted), beside the answers used so far;
+    and, where more than one budget was run, the student alone at the end against the budget."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4))
     budgets = sorted(
         {float(k[1]) for k in by_key if k[0] != "ppo"}, key=lambda b: (math.isinf(b), b)
     )
-    finite = [b for b in budgets if math.isfinite(b)]
-    # unlimited drawn one decade past the largest budget run
-    shown = {b: b if math.isfinite(b) else 10 * max(finite or [1e3]) for b in budgets}
-    for rule in RULES:
-        for availability in sorted({k[2] for k in by_key if k[0] == rule}, reverse=True):
-            keys = sorted(
-                (k for k in by_key if k[0] == rule and k[2] == availability),
-                key=lambda k: shown[float(k[1])],
-            )
-            if not keys:
-                continue
-            xs = [shown[float(k[1])] for k in keys]
-            scores = [[final_score(r) for r in by_key[k]] for k in keys]
-            style = "-o" if availability >= 1 else "--s"
-            label = f"{rule}, availability {availability:g}"
-            (line,) = left.plot(xs, [np.mean(s) for s in scores], style, label=label)
-            left.errorbar(
-                xs,
-                [np.mean(s) for s in scores],
-                [np.std(s) for s in scores],
-                fmt="none",
-                color=line.get_color(),
-                alpha=0.5,
-            )
-            used = [np.mean([answers_used(r) for r in by_key[k]]) for k in keys]
-            right.plot(xs, used, style, color=line.get_color(), label=label)
+    panels = 3 if len(budgets) > 1 else 2
+    fig, axes = plt.subplots(1, panels, figsize=(5 * panels, 4))
+    alone, used_ax = axes[0], axes[1]
+    styles = {1.0: "-", 0.5: "--"}
+    colors = {rule: f"C{i}" for i, rule in enumerate(RULES)}
+    markers = dict(zip(BUDGETS, "v.s*", strict=True))  # the budget: its marker
+    for key in sorted(k for k in by_key if k[0] != "ppo"):
+        rule, budget, availability = key
+        rs = by_key[key]
+        label = f"{rule}, budget {budget}, availability {availability:g}"
+        style = styles.get(availability, ":")
+        steps, scores = _mean_curve([r["curve"] for r in rs], 1)
+        marker = markers.get(budget, "x")
+        alone.plot(steps, scores, style, color=colors.get(rule), label=label, marker=marker)
+        steps, answers = _mean_curve([r["answers"] for r in rs], 1)
+        used_ax.plot(steps, answers, style, color=colors.get(rule), label=label, marker=marker)
     ppo = by_key.get(("ppo", "", 1.0))
     if ppo:
-        left.axhline(
-            np.mean([final_score(r) for r in ppo]), color="grey", ls=":", label="PPO alone"
-        )
-    for ax in (left, right):
+        steps, scores = _mean_curve([r["curve"] for r in ppo], 1)
+        alone.plot(steps, scores, ":", color="grey", label="PPO alone", marker=".")
+    alone.set_xlabel("environment steps")
+    alone.set_ylabel("return of the student alone (greedy)")
+    alone.set_title(f"{case}: the student alone")
+    alone.legend(fontsize=6)
+    used_ax.set_xlabel("environment steps")
+    used_ax.set_ylabel("answers used so far")
+    used_ax.set_title("answers used")
+    if panels == 3:
+        ax = axes[2]
+        finite = [b for b in budgets if math.isfinite(b)]
+        shown = {b: b if math.isfinite(b) else 10 * max(finite or [1e3]) for b in budgets}
+        for rule in RULES:
+            for availability in sorted({k[2] for k in by_key if k[0] == rule}, reverse=True):
+                keys = sorted(
+                    (k for k in by_key if k[0] == rule and k[2] == availability),
+                    key=lambda k: shown[float(k[1])],
+                )
+                xs = [shown[float(k[1])] for k in keys]
+                ys = [np.mean([final_score(r) for r in by_key[k]]) for k in keys]
+                ax.plot(xs, ys, styles.get(availability, ":"), color=colors[rule], marker="o")
+        if ppo:
+            ax.axhline(np.mean([final_score(r) for r in ppo]), color="grey", ls=":")
         ax.set_xscale("log")
         ax.set_xticks(list(shown.values()))
         ax.set_xticklabels([f"{b:g}" if math.isfinite(b) else "no limit" for b in shown])
         ax.set_xlabel("advice budget (answers)")
-    left.set_ylabel("student alone at the end (greedy)")
-    left.set_title(f"{case}: the student alone")
-    right.set_ylabel("answers used")
-    right.set_yscale("symlog", linthresh=10)
-    right.set_ylim(bottom=0)
-    right.set_title("answers used")
-    left.legend(fontsize=7)
+        ax.set_ylabel("student alone at the end")
+        ax.set_title("against the budget")
     fig.tight_layout()
     fig.savefig(out / f"{case}.png", dpi=100)
     plt.close(fig)
