@@ -533,10 +533,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 data["obs"] if unwrap_vec_normalize(self.env) is None else data["teacher_obs"],
                 labelled,
             )
-            # only the states some teacher labelled: a state no teacher was asked in would
-            # dilute the imitation term's mean (it weighs 0) and push asked states out of the
-            # ring; under a budget of 1e3 answers over 1e5 steps they would be 99% of it
-            self._store_labels(data, labelled, advice)
+            self._store_labels(data, labelled, advice)  # only the states some teacher labelled
             if cfg.low_level_data == "silent":  # where no teacher asked says anything
                 information = (
                     losses.advice_information(advice) if self.discrete else advice[..., -1]
