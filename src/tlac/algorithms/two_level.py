@@ -721,15 +721,23 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             x[idx] if replayed is None else torch.cat([x[idx], self._replayed_x(replay, replayed)])
         )
         high_logits, low_out, values, latent = (h[:b] for h in heads)
-        if "high_shift" in data:  # ask learned: the price each answer had in this row
-            high_logits = priced_logits(high_logits, data["high_shift"][idx])
+        # ask learned: the high level acted with the price each answer had in this row; its
+        # entropy bonus reads its preferences without the price (below)
+        acting_logits = None
+        if "high_shift" in data:
+            acting_logits = priced_logits(high_logits, data["high_shift"][idx])
         if "high_mask" in data:  # limited advice: the choices the high level had in each row
             high_logits = mask_logits(high_logits, data["high_mask"][idx])
+            if acting_logits is not None:
+                acting_logits = mask_logits(acting_logits, data["high_mask"][idx])
+        if acting_logits is None:
+            acting_logits = high_logits
         # low level, Eq. 3: log pi_low(a|s) A(s, a) on the EXECUTED actions
         lp_low = self._low_log_prob(low_out, latent, data["actions"][idx])
         log_probs = lp_low[None]
         if self.train_high:  # high level, Eq. 7: log pi_high(e|s) A(s, a), the SAME advantage
-            lp_high = torch.log_softmax(high_logits, -1).gather(1, data["choices"][idx].view(-1, 1))
+            lp_high = torch.log_softmax(acting_logits, -1)
+            lp_high = lp_high.gather(1, data["choices"][idx].view(-1, 1))
             log_probs = torch.stack([lp_low, lp_high.squeeze(1)])
         old = rows.old_log_probs[:, idx]
         weights = None if rows.loss is None else rows.loss[:, idx]
@@ -749,6 +757,11 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             loss = loss + distill * imitation
             log.imitation.append(imitation.detach())
         if self._use_entropy:  # skipped when both coefficients are 0 (Table 5)
+            # (ask learned: on the logits without the price. On the priced ones, nearly all on
+            # the agent, the bonus pushed the teachers' logits up against the price, which
+            # chased them (278 after 3e5 DoorKey steps), and its gradient, p_k |log p_k| for a
+            # rare teacher, favoured the likeliest one: 960 of 1,000 answers to one random
+            # teacher, results/advice-budget/NOTES.md)
             entropies = self._mean_entropies(high_logits, low_out, latent, cfg.ent_cap_high or None)
             loss = loss - (self._entropy_coefs()[: len(entropies)] * entropies).sum()
         log.losses_and_kls.append(torch.cat([policy_losses.detach(), vf_loss.detach()[None], kls]))
