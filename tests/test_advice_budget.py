@@ -28,6 +28,7 @@ def _fake(case, learner, budget, availability, seed, score, answers):
             budget=budget,
             availability=availability,
             advice={"teachers": {"a": {"answers": answers}, "b": {"answers": 0}}},
+            answers=[[1000, answers, float(answers)]],
         )
     return run
 
