@@ -14,13 +14,18 @@ import torch
 
 from tlac import TLAC
 from tlac.algorithms.advice import (
+    PACING_HORIZON,
     AdviceLedger,
     ask_gate,
+    corrected_rows,
     grant_in_order,
     logit_spread,
     mask_logits,
     normalized_entropy,
+    paced_price,
     per_teacher,
+    priced_logits,
+    starting_price,
 )
 from tlac.cli import main
 from tlac.errors import ConfigError
@@ -67,6 +72,64 @@ def test_rules_decide_by_hand():
     assert ask_gate("uncertainty", logits, 0.7).tolist() == [True, False, True, False]
     assert ask_gate("importance", logits).tolist() == ask_gate("importance", logits, 1.0).tolist()
     assert ask_gate("uncertainty", logits).tolist() == ask_gate("uncertainty", logits, 0.5).tolist()
+
+
+def test_learned_and_mistake_gates_by_hand():
+    logits = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.5, 0.0, 0.0], [9.0, 0.0, 0.0]])
+    # learned: the student may ask everywhere (the high level's choice is the ask)
+    assert ask_gate("learned", logits).tolist() == [True] * 4
+    # mistake correcting checks in the states importance flags (spread >= 1 by default)
+    assert ask_gate("mistake", logits).tolist() == [False, True, False, True]
+    assert ask_gate("mistake", logits, 2.5).tolist() == [False, False, False, True]
+
+
+def test_starting_price_by_hand():
+    # two teachers, 1e3 answers over 1e5 steps (pace 0.01 a step, cost 1): log(2 * 0.99 / 0.01)
+    price = starting_price(2, 0.01, 1.0)
+    assert price == pytest.approx(math.log(198.0)) == pytest.approx(5.28827, abs=1e-5)
+    # at that price a high level with equal logits asks (chooses either teacher) 1% of the time
+    p = np.exp(priced_logits(np.zeros((1, 3)), price * np.ones(2)))[0]
+    assert p[:2].sum() / p.sum() == pytest.approx(0.01)
+    # a teacher of cost 2 at pace 0.01 (0.005 answers a step): log(2 * 0.995 / 0.005) / 2
+    assert starting_price(2, 0.01, 2.0) == pytest.approx(math.log(398.0) / 2)
+    assert starting_price(2, 0.7, 1.0) == 0.0  # affords the untrained 2 in 3
+    assert starting_price(3, 0.5, 0.0) == 0.0  # free answers: nothing to pace
+
+
+def test_paced_price_by_hand():
+    # pace 1000 / 100000 = 0.01; 1000 steps plan 10 answers
+    # overspent by 20: + 0.5 * 20 / (0.01 * 2048) = 0.48828125
+    assert PACING_HORIZON == 2048
+    assert paced_price(5.0, 30.0, 1000, 1000.0, 100_000) == 5.48828125
+    assert paced_price(5.0, 10.0, 1000, 1000.0, 100_000) == 5.0  # on the pace: kept
+    assert paced_price(5.0, 0.0, 1000, 1000.0, 100_000) == 4.755859375  # behind: falls
+    assert paced_price(0.2, 0.0, 1000, 1000.0, 100_000) == 0.0  # never below 0
+    assert paced_price(3.0, 5.0, 16, 0.0, 500) == 3.0  # nothing left: kept
+    # a 16-step rollout spends 0 or 1 answers: at the pace (16 answers over 16,000 steps: one
+    # in 62.5 rollouts) the moves cancel in expectation, so the price settles where the
+    # spending keeps the pace
+    chance = 16 * 16.0 / 16_000
+    up = paced_price(1.0, 1.0, 16, 16.0, 16_000) - 1.0
+    down = 1.0 - paced_price(1.0, 0.0, 16, 16.0, 16_000)
+    assert chance * up == pytest.approx((1 - chance) * down)
+
+
+def test_priced_logits_charge_teachers_not_the_agent():
+    logits = np.array([[1.0, 2.0, 3.0], [0.0, 0.0, 0.0]])
+    shifted = priced_logits(logits, np.array([0.5, 2.0]))
+    assert shifted.tolist() == [[0.5, 0.0, 3.0], [-0.5, -2.0, 0.0]]
+    assert logits.tolist() == [[1.0, 2.0, 3.0], [0.0, 0.0, 0.0]]  # a copy
+    as_torch = priced_logits(torch.tensor(logits), torch.tensor([[0.5, 2.0], [0.5, 2.0]]))
+    assert as_torch.tolist() == shifted.tolist()
+
+
+def test_corrected_rows_by_hand():
+    # teachers 0 and 1, the agent 2: a row is corrected where a teacher acted and its action
+    # differs from the one the student sampled
+    choices = np.array([0, 1, 2, 0, 1])
+    own = np.array([1, 0, 1, 0, 1])
+    executed = np.array([0, 0, 1, 0, 0])
+    assert corrected_rows(choices, own, executed, 2).tolist() == [True, False, False, False, True]
 
 
 def test_grant_in_order_by_hand():
@@ -249,6 +312,65 @@ def test_answers_are_logged_and_reported(tmp_path):
     assert model.advice.progress(["pd"]).startswith("answers pd ")
     summary = model.advice.summary(["pd"])
     assert summary["budget"] == 100 and summary["teachers"]["pd"]["answers"] > 0
+
+
+def test_learned_asking_paces_the_budget():
+    """ask learned: the price starts where the untrained high level asks at the even pace, so
+    the budget is not spent in the first rollouts; the update's high level sees the priced
+    logits it acted with (ratio 1 before any step); labels come only from the teachers that
+    acted; the budget is never exceeded."""
+    run = _cartpole([Spy("pd"), Spy("coin")], advice_budget=40, ask="learned")
+    assert run.solo.teacher_share == 0.0  # no teacher-led episodes: they would ignore the price
+    run._schedule = (0, 32_000)  # as learn(32_000) sets it: a pace of 1 answer in 800 steps
+    ro = run.collect()
+    price = starting_price(2, 40 / 32_000, 1.0)  # log(2 * 0.99875 / 0.00125) = 7.3765
+    assert price == pytest.approx(7.3765, abs=1e-4)
+    assert ro.high_shift[0, 0].tolist() == pytest.approx([price, price])
+    assert run.advice.spent <= 2  # at price 0 the untrained high level would ask 2 in 3 of 32
+    assert run.advice.price == pytest.approx(paced_price(price, run.advice.spent, 32, 40.0, 32_000))
+    data = ro.flat()  # the update's high-level log-probabilities are those it acted with
+    high_logits = run._heads(run._update_rows(data["obs"]))[0]
+    high_logits = mask_logits(priced_logits(high_logits, data["high_shift"]), data["high_mask"])
+    lp = torch.log_softmax(high_logits, -1).gather(1, data["choices"].view(-1, 1)).squeeze(1)
+    assert torch.allclose(lp, data["log_prob_high"], atol=1e-5)
+
+    pd, coin = Spy("pd"), Spy("coin")
+    model = _cartpole([pd, coin], advice_budget=40, ask="learned")
+    model.learn(3200)
+    ledger = model.advice
+    assert 0 < ledger.spent <= 40
+    assert ledger.labels.tolist() == ledger.acted.tolist() == ledger.answers.tolist()
+    assert (pd.rows, coin.rows) == tuple(ledger.acted + ledger.labels)
+    buffer = model.advice_buffer  # only the asked states, each labelled by the one that acted
+    assert len(buffer) == min(int(ledger.answers.sum()), buffer.capacity)
+    assert (buffer.labelled[: len(buffer)].sum(1) == 1).all()
+    assert ledger.summary(model.teacher_names)["price"] == ledger.price >= 0
+
+
+def test_mistake_correcting_labels_only_disagreements():
+    """ask mistake: where importance flags the state, the chosen teacher checks the student's
+    sampled action; its answer is stored as a label only where it disagrees."""
+    teacher = Spy("pd")
+    model = _cartpole([teacher], ask="mistake", ask_threshold=0.0, teacher_episodes=0)
+    model.learn(320)  # (ask_threshold 0: every state flagged)
+    ro = model.collect()
+    acted = ro.choices == 0
+    assert acted.any() and ro.corrected is not None
+    assert not ro.corrected[~acted].any()  # only where the teacher was asked
+    # by hand: the teacher's action against what the student would have done there
+    obs = ro.obs.reshape(-1, ro.obs.shape[-1])
+    pd_actions = (obs[:, 2] + 0.5 * obs[:, 3] > 0).astype(np.int64).reshape(ro.choices.shape)
+    assert (ro.actions[acted] == pd_actions[acted]).all()
+    before = len(model.advice_buffer)
+    labels_before = int(model.advice.labels[0])
+    model.update(ro, 1.0)
+    added = int(ro.corrected.sum())
+    assert int(model.advice.labels[0]) - labels_before == added
+    assert len(model.advice_buffer) == min(before + added, model.advice_buffer.capacity)
+    # the answers: every check is one (acted), the corrections among them are labels too
+    assert model.advice.answers[0] == model.advice.acted[0]
+    with pytest.raises(ConfigError, match="needs discrete actions"):
+        TLAC(gym.make("Pendulum-v1"), teachers=[lambda o: np.zeros(1)], ask="mistake")
 
 
 def _digest(model: TLAC) -> str:

@@ -30,16 +30,27 @@ where its answer is used, and each answer is paid for:
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
-ASK_RULES = ("always", "early", "importance", "uncertainty")
+ASK_RULES = ("always", "early", "importance", "uncertainty", "learned", "mistake")
 """The asking rules (``ask``): which states the student asks its teachers in."""
 
-DEFAULT_THRESHOLDS = {"importance": 1.0, "uncertainty": 0.5}
-"""``ask_threshold`` where it is left unset: importance, a spread of 1 nat between the
-student's most and least likely actions (the best e times likelier than the worst);
-uncertainty, half of the largest possible entropy."""
+DEFAULT_THRESHOLDS = {"importance": 1.0, "uncertainty": 0.5, "mistake": 1.0}
+"""``ask_threshold`` where it is left unset: importance (and mistake correcting, which checks
+in the states importance flags), a spread of 1 nat between the student's most and least likely
+actions (the best e times likelier than the worst); uncertainty, half of the largest possible
+entropy."""
+
+PACING_STEP = 0.5
+"""How far the price of an answer moves (in high-level logits per unit of cost) when a
+:data:`PACING_HORIZON` steps' worth of the even pace is overspent (or left unspent)."""
+
+PACING_HORIZON = 2048
+"""The steps over which a deviation from the even pace moves the price by :data:`PACING_STEP`
+(SB3 PPO's rollout): a 16-step rollout moves it by 16/2048 of that, so that the price follows
+the spending of many rollouts rather than the noise of one."""
 
 MASKED_LOGIT = -1e9
 """The high-level logit of a teacher that cannot answer: a probability of exactly 0 in float32
@@ -91,6 +102,11 @@ def ask_gate(rule: str, logits: np.ndarray, threshold: float | None = None) -> n
       ``threshold`` (:func:`normalized_entropy`): the student asks where it does not know what
       to do, Amir et al. 2016's *ask uncertain* (their Q-values close together, here its policy
       near uniform).
+    * ``learned``: in every state; the high level's choice of a teacher is the ask, and its
+      price (:func:`paced_price`) is charged in the high level's logits (:func:`priced_logits`).
+    * ``mistake``: where importance flags the state (Torrey & Taylor 2013's *mistake
+      correcting*): the teacher checks the student's action, and its answer is stored as a
+      label only where it disagrees (TLAC.collect).
 
     ``threshold`` None: :data:`DEFAULT_THRESHOLDS`.
 
@@ -100,15 +116,96 @@ def ask_gate(rule: str, logits: np.ndarray, threshold: float | None = None) -> n
     [False, True]
     """
     n = logits.shape[0]
-    if rule in ("always", "early"):
+    if rule in ("always", "early", "learned"):
         return np.ones(n, dtype=bool)
     if threshold is None:
         threshold = DEFAULT_THRESHOLDS[rule]
-    if rule == "importance":
+    if rule in ("importance", "mistake"):
         return logit_spread(logits) >= threshold
     if rule == "uncertainty":
         return normalized_entropy(logits) >= threshold
     raise ValueError(f"unknown asking rule {rule!r}; expected one of {', '.join(ASK_RULES)}")
+
+
+def starting_price(n_teachers: int, pace: float, cost: float) -> float:
+    """The price of an answer, per unit of cost, at which a high level with no preference yet
+    (every logit equal) asks at the even ``pace`` (cost units per step) of the budget: it
+    chooses any of the ``n_teachers`` with probability ``K e^(-price c) / (K e^(-price c) + 1)``
+    (:func:`priced_logits`), set equal to the asking rate ``r = pace / cost``:
+    ``price = log(K (1 - r) / r) / cost``; 0 where the budget covers asking as often as the
+    untrained high level does (``r >= K / (K + 1)``).
+
+    Without it the untrained high level asks in most states (two teachers and the agent: 2 of
+    3) and a budget of 1e3 answers is spent in the first 1,500 steps, before the price could
+    learn anything from the spending (issue 66: the budget is not spent in the first episodes).
+
+    >>> round(starting_price(2, 0.01, 1.0), 4)   # 1e3 answers over 1e5 steps: log(198)
+    5.2883
+    >>> starting_price(2, 0.9, 1.0)
+    0.0
+    """
+    if cost <= 0:  # free answers: nothing to pace
+        return 0.0
+    rate = pace / cost
+    if rate >= n_teachers / (n_teachers + 1):
+        return 0.0
+    return max(math.log(n_teachers * (1.0 - rate) / rate), 0.0) / cost
+
+
+def paced_price(
+    price: float,
+    spent: float,
+    steps: int,
+    remaining: float,
+    steps_left: int,
+    step: float = PACING_STEP,
+    horizon: int = PACING_HORIZON,
+) -> float:
+    """The price of an answer after a rollout of ``steps`` steps that spent ``spent``: a dual
+    variable (the Lagrange multiplier of the budget constraint, moved by dual ascent) that rises
+    when the spending ran ahead of the even pace of the budget ``remaining`` at the rollout's
+    start over the ``steps_left`` then, and falls when it lagged behind:
+
+        pace = remaining / steps_left;  planned = pace * steps
+        price' = max(0, price + step * (spent - planned) / (pace * horizon))
+
+    The move is linear in the overspending, so that its expectation is 0 exactly at the even
+    pace (a 16-step rollout spends 0 or at least one answer, never the pace's 0.16: a clipped
+    or logarithmic move would settle elsewhere). Nothing left to pace (``remaining`` or
+    ``steps_left`` 0): the price is kept.
+
+    Hand-checked: price 5, 30 spent in 1,000 steps, 1,000 left over 100,000 steps: pace 0.01,
+    planned 10, 5 + 0.5 * 20 / 20.48 = 5.48828125; 0 spent: 5 - 0.5 * 10 / 20.48.
+
+    >>> paced_price(5.0, 30.0, 1000, 1000.0, 100_000)
+    5.48828125
+    >>> paced_price(5.0, 0.0, 1000, 1000.0, 100_000)
+    4.755859375
+    >>> paced_price(0.1, 0.0, 1000, 1000.0, 100_000)   # never below 0
+    0.0
+    """
+    if remaining <= 0 or steps_left <= 0 or steps <= 0:
+        return price
+    pace = remaining / steps_left
+    planned = pace * steps
+    return max(0.0, price + step * (spent - planned) / (pace * horizon))
+
+
+def priced_logits(high_logits: Any, shift: Any) -> Any:
+    """The high level's logits ``(n, K + 1)`` with each teacher's price charged: teacher ``k``'s
+    logit minus ``shift[k]`` (``price * cost_k``; ``shift`` ``(K,)`` or ``(n, K)``); the agent's
+    (the last column) is free. The high level that maximises its advantage minus the price of
+    its answers, with an entropy bonus of temperature ``tau``, is ``softmax((Q_e - price c_e) /
+    tau)``: a logit shift by the price (the Lagrangian of the budget constraint). NumPy arrays
+    and torch tensors alike.
+
+    >>> priced_logits(np.zeros((1, 3)), np.array([1.0, 2.5])).tolist()
+    [[-1.0, -2.5, 0.0]]
+    """
+    k = shift.shape[-1]
+    out = high_logits.clone() if hasattr(high_logits, "clone") else high_logits.copy()
+    out[:, :k] = out[:, :k] - shift
+    return out
 
 
 def grant_in_order(
@@ -158,6 +255,26 @@ def acting_teachers(choices: np.ndarray, n_teachers: int) -> np.ndarray:
     rows = np.zeros((len(choices), n_teachers), dtype=bool)
     rows[acting, choices[acting]] = True
     return rows
+
+
+def corrected_rows(
+    choices: np.ndarray, own: np.ndarray, executed: np.ndarray, n_teachers: int
+) -> np.ndarray:
+    """``(n,)`` bool, mistake correcting (Torrey & Taylor 2013): the rows where a teacher was
+    asked to check the student's action (the high level chose it, ``choices < K``) and
+    disagreed: the action it gave (``executed``) is not the one the student meant (``own``, its
+    sample). Only there is its answer stored as a label; where it agrees, the action is the
+    student's own.
+
+    >>> choices = np.array([0, 1, 2, 0])            # two teachers; 2 is the agent
+    >>> own, executed = np.array([1, 0, 1, 0]), np.array([0, 0, 1, 0])
+    >>> corrected_rows(choices, own, executed, 2).tolist()
+    [True, False, False, False]
+    """
+    differs = np.asarray(own) != np.asarray(executed)
+    if differs.ndim > 1:  # Box actions: any coordinate
+        differs = differs.reshape(len(differs), -1).any(axis=1)
+    return (np.asarray(choices) < n_teachers) & differs
 
 
 def per_teacher(
@@ -241,6 +358,32 @@ class AdviceLedger:
         self.labels = np.zeros(n_teachers, dtype=np.int64)
         self.spent = 0.0
         self.rng = np.random.default_rng([seed, 0xAD71CE])  # its own stream: acting is untouched
+        # ask learned: the price of an answer per unit of cost, charged in the high level's
+        # logits (priced_logits); nan until the first rollout sets it (starting_price)
+        self.price = math.nan
+
+    @property
+    def paced(self) -> bool:
+        """The price of answers is paced (ask learned, a budget)."""
+        return self.rule == "learned" and math.isfinite(self.budget)
+
+    def shift(self) -> np.ndarray:
+        """``(K,)``: what each teacher's answer costs in the high level's logits now."""
+        price = self.price if self.paced and math.isfinite(self.price) else 0.0
+        return price * self.costs
+
+    def start_pacing(self, steps_left: int) -> None:
+        """Before a rollout (ask learned, a budget): the first sets the price at which the
+        untrained high level asks at the even pace (:func:`starting_price`)."""
+        if self.paced and math.isnan(self.price) and steps_left > 0:
+            cost = float(self.costs.mean()) if len(self.costs) else 0.0
+            self.price = starting_price(len(self.costs), self.remaining / steps_left, cost)
+
+    def repace(self, spent: float, steps: int, remaining: float, steps_left: int) -> None:
+        """After a rollout of ``steps`` that spent ``spent``, from ``remaining`` over
+        ``steps_left`` at its start: the price moves toward the even pace (:func:`paced_price`)."""
+        if self.paced and math.isfinite(self.price):
+            self.price = paced_price(self.price, spent, steps, remaining, steps_left)
 
     def draw_presence(self, episode_starts: np.ndarray) -> None:
         """Draw which teachers are present in the episodes that start now (each with its
@@ -303,6 +446,8 @@ class AdviceLedger:
         out["advice/spent"] = self.spent
         if math.isfinite(self.budget):
             out["advice/remaining"] = self.remaining
+        if self.paced and math.isfinite(self.price):
+            out["advice/price"] = self.price
         return out
 
     def summary(self, names: list[str]) -> dict[str, object]:
@@ -312,6 +457,7 @@ class AdviceLedger:
             "budget": None if not math.isfinite(self.budget) else self.budget,
             "spent": self.spent,
             "ask": self.rule,
+            **({"price": self.price} if self.paced and math.isfinite(self.price) else {}),
             "teachers": {
                 n: {
                     "cost": float(c),

@@ -35,6 +35,8 @@ class Rollout:
     # advice limited (tlac.algorithms.advice; None otherwise): (T, E, K) bool
     askable: np.ndarray | None = None  # the teachers present where the student asked
     high_mask: np.ndarray | None = None  # the teachers the high level could choose from
+    high_shift: np.ndarray | None = None  # ask learned, (T, E, K): the price in the logits
+    corrected: np.ndarray | None = None  # ask mistake, (T, E) bool: the teacher disagreed
 
     @classmethod
     def empty(

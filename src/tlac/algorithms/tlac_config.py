@@ -91,12 +91,16 @@ class AdviceSettings:
     (every state; tlac's default and the paper's), early (every state while the budget lasts:
     Torrey & Taylor 2013's early advising), importance (where the spread of the student's own
     action logits is at least ask_threshold: Amir et al. 2016's ask-important) or uncertainty
-    (where its policy's normalised entropy is at least ask_threshold: their ask-uncertain).
-    importance and uncertainty need discrete actions. Where the student does not ask, it acts
-    and no label is stored; a teacher-led episode's teacher is asked in every state."""
+    (where its policy's normalised entropy is at least ask_threshold: their ask-uncertain),
+    learned (the high level's choice of a teacher is the ask; on a budget its price, paced
+    over the run, is charged in the high level's logits, and no episode is teacher-led) or
+    mistake (in the states importance flags, the teacher checks the student's action: a label
+    only where it disagrees; Torrey & Taylor 2013's mistake correcting). importance,
+    uncertainty and mistake need discrete actions. Where the student does not ask, it acts and
+    no label is stored; a teacher-led episode's teacher is asked in every state."""
     ask_threshold: float | None = None
-    """The threshold of ask importance (nats of logit spread; None: 1.0) or uncertainty (a
-    share of the largest entropy, in [0, 1]; None: 0.5)."""
+    """The threshold of ask importance and mistake (nats of logit spread; None: 1.0) or
+    uncertainty (a share of the largest entropy, in [0, 1]; None: 0.5)."""
 
     def __post_init__(self) -> None:
         check = Checks("TL-AC")

@@ -35,8 +35,10 @@ from tlac.algorithms.advice import (
     AdviceLedger,
     acting_teachers,
     ask_gate,
+    corrected_rows,
     mask_logits,
     per_teacher,
+    priced_logits,
 )
 from tlac.algorithms.callbacks import LearnCallbacks, SB3Compat, check_sb3_arguments
 from tlac.algorithms.common import (
@@ -241,7 +243,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         terms = cfg.advice
         self.limited_advice = terms.limits and self.n_teachers > 0
         if self.n_teachers or terms.teacher_cost or terms.availability:
-            if terms.ask in ("importance", "uncertainty") and not self.discrete:
+            if terms.ask in ("importance", "uncertainty", "mistake") and not self.discrete:
                 raise ConfigError(
                     f"TL-AC setting ask {terms.ask!r} reads the student's action logits and "
                     "needs discrete actions; use always or early with Box actions"
@@ -276,13 +278,19 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         self.greedy_solo = (
             not self.discrete and bool(cfg.solo_budget) and cfg.low_level_data == "silent"
         )
+        # ask learned on a budget: the high level's choices are the only asks. A teacher-led
+        # episode asks in every state whatever the price (on CartPole, 500 answers an episode:
+        # the audition's first two would spend a budget of 1e3), so there is none
+        teacher_share = cfg.teacher_episodes
+        if terms.ask == "learned" and terms.advice_budget is not None:
+            teacher_share = 0.0
         if cfg.solo_budget and self.n_teachers:
             self.solo = SoloEpisodes(
                 self.n_envs,
                 cfg.solo_budget,
                 self.seed,
                 n_teachers=self.n_teachers,
-                teacher_share=cfg.teacher_episodes,
+                teacher_share=teacher_share,
             )
         self.deployed: StudentSnapshot | None = None  # None: predict uses the live weights
         self._sde_noise: np.ndarray | None = None
@@ -323,9 +331,20 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             self._resample_sde_noise()
         vec_normalize = unwrap_vec_normalize(self.env)  # the user's: teachers get raw observations
         limits = self.advice if self.limited_advice else None
+        rule = cfg.advice.ask
         if limits is not None:
             ro.askable = np.zeros((T, E, self.n_teachers), dtype=bool)
             ro.high_mask = np.zeros((T, E, self.n_teachers), dtype=bool)
+            if rule == "learned":  # the price of each answer, charged in the high level's logits
+                ro.high_shift = np.zeros((T, E, self.n_teachers), dtype=np.float32)
+                steps_left = self._advice_steps_left()
+                limits.start_pacing(steps_left)
+                pacing = (limits.spent, limits.remaining, steps_left)
+            if rule == "mistake":
+                ro.corrected = np.zeros((T, E), dtype=bool)
+        # ask learned and mistake: labels come only from the teacher that acted (learned: the
+        # high level's ask; mistake: where it disagreed with the student), none from the others
+        labels_from_gate = rule not in ("learned", "mistake")
         for t in range(T):
             if cfg.use_sde and cfg.sde_sample_freq > 0 and t > 0 and t % cfg.sde_sample_freq == 0:
                 self._resample_sde_noise()
@@ -340,8 +359,11 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 choices = self.selector.select(high_logits, self._episode_starts)  # line 14
             else:  # only teachers present, affordable and asked can be chosen
                 limits.draw_presence(self._episode_starts)
-                asks = ask_gate(cfg.advice.ask, low_out, cfg.advice.ask_threshold)
+                asks = ask_gate(rule, low_out, cfg.advice.ask_threshold)
                 can = limits.can_answer(asks)
+                if ro.high_shift is not None:  # the behaviour policy pays the price of asking
+                    ro.high_shift[t] = limits.shift()
+                    high_logits = priced_logits(high_logits, ro.high_shift[t])
                 choices = self.selector.select(mask_logits(high_logits, can), self._episode_starts)
             if self.solo is not None:  # graduate variant: some episodes are the student's alone
                 solo = self.solo.start(
@@ -356,14 +378,17 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 ro.solo[t] = solo
             if limits is not None:  # the acting teachers' answers, paid for
                 choices, high_mask = self._charge_acting(limits, choices, can)
-                ro.askable[t] = limits.present & asks[:, None]
+                ro.askable[t] = limits.present & (asks & labels_from_gate)[:, None]
                 ro.high_mask[t] = high_mask
                 high_logits = mask_logits(high_logits, high_mask)
             actions = self._sample_low(low_out, latent)  # line 16 (kept where the agent acts)
             if self.greedy_solo:
                 actions = np.where(ro.solo[t][:, None] > 0, low_out, actions)
             teacher_obs = self._last_obs if vec_normalize is None else original_obs(vec_normalize)
+            own = actions.copy() if ro.corrected is not None else None  # the student's intent
             actions = self._apply_teachers(choices, teacher_obs, actions)  # line 18
+            if own is not None:  # mistake correcting: the teacher checked the student's action
+                ro.corrected[t] = corrected_rows(choices, own, actions, self.n_teachers)
 
             clipped_actions = self._to_env_actions(actions)  # (SB3's name, for callbacks)
             new_obs, rewards, dones, infos = self.env.step(clipped_actions)  # line 19
@@ -401,6 +426,9 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             self._episode_starts = np.asarray(dones, dtype=bool)
             if stopped:  # as SB3: no update on a rollout that a callback cut short
                 return None
+        if ro.high_shift is not None:  # the price follows the spending (advice.paced_price)
+            spent0, remaining0, steps_left0 = pacing
+            limits.repace(limits.spent - spent0, T * E, remaining0, steps_left0)
         last_values = self._act_heads(self._last_obs)[2]
         ro.advantages, ro.returns = compute_gae(
             ro.rewards, ro.values, ro.dones, last_values, cfg.gamma, cfg.gae_lambda
@@ -410,6 +438,14 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         if sb3 is not None:
             sb3.rollout_end(self._sb3_locals(locals(), ro, T))
         return ro
+
+    def _advice_steps_left(self) -> int:
+        """The steps left in the learn call in progress (its schedules' horizon), to pace the
+        price of answers over; 0 outside learn."""
+        if self._schedule is None:
+            return 0
+        origin, horizon = self._schedule
+        return max(origin + horizon - self.num_timesteps, 0)
 
     def _limit_leaders(self, limits: AdviceLedger) -> None:
         """Teacher-led episodes under limited advice: once the budget is spent, every episode
@@ -449,14 +485,39 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
                 self.solo.leader[refused] = -1
         return choices, can | granted
 
-    def _charge_labels(self, data: dict[str, torch.Tensor]) -> torch.Tensor:
+    def _charge_labels(
+        self, data: dict[str, torch.Tensor], paid_only: bool = False
+    ) -> torch.Tensor:
         """``(n, K)`` bool: the teachers asked for a label in each row of the rollout: those
         present where the student asked, while the budget holds (rollout order); a teacher that
-        acted in a row labels it with the answer already paid for."""
+        acted in a row labels it with the answer already paid for. ``paid_only``: only those."""
         assert self.advice is not None
         paid = acting_teachers(data["choices"].numpy(), self.n_teachers)
-        wanted = data["askable"].numpy() | paid
+        if "corrected" in data:  # mistake correcting: a label only where the teacher disagreed
+            paid &= data["corrected"].numpy()[:, None]
+        wanted = paid if paid_only else data["askable"].numpy() | paid
         return torch.from_numpy(self.advice.charge(wanted, paid))
+
+    def _store_labels(
+        self,
+        data: dict[str, torch.Tensor],
+        labelled: torch.Tensor,
+        advice: torch.Tensor | None = None,
+    ) -> None:
+        """Add to the advice buffer the rollout's states that some teacher labelled, with their
+        labels (``advice``: asked here where None). Only those: a state no teacher was asked in
+        would dilute the imitation term's mean (it weighs 0) and push asked states out of the
+        ring (under a budget of 1e3 answers over 1e5 steps, 99% of it)."""
+        assert self.advice_buffer is not None
+        keep = labelled.any(dim=1)
+        if not bool(keep.any()):
+            return
+        if advice is None:
+            obs = data["obs"] if unwrap_vec_normalize(self.env) is None else data["teacher_obs"]
+            advice = self._advice_on(obs[keep], labelled[keep])
+            self.advice_buffer.add(data["obs"][keep], advice, labelled[keep])
+            return
+        self.advice_buffer.add(data["obs"][keep], advice[:, keep], labelled[keep])
 
     def _sb3_locals(self, local_vars: dict[str, Any], ro: Rollout, n_steps: int) -> dict[str, Any]:
         """:meth:`collect`'s variables, with the names of SB3's ``collect_rollouts`` that they
@@ -491,13 +552,17 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         silent = None
         if self.advice is not None and not self.limited_advice:  # counted only
             self.advice.count_unlimited(data["choices"].numpy(), imitates)
+        if self.advice_buffer is not None and self.limited_advice and not imitates:
+            # nothing is copied now (the audition, a weaned copy): no label is asked, but the
+            # answers already paid for (the teachers that acted) are kept, at no cost
+            self._store_labels(data, self._charge_labels(data, paid_only=True))
         if imitates and self.limited_advice:
             labelled = self._charge_labels(data)
             advice = self._advice_on(
                 data["obs"] if unwrap_vec_normalize(self.env) is None else data["teacher_obs"],
                 labelled,
             )
-            self.advice_buffer.add(data["obs"], advice, labelled)
+            self._store_labels(data, labelled, advice)  # only the states some teacher labelled
             if cfg.low_level_data == "silent":  # where no teacher asked says anything
                 information = (
                     losses.advice_information(advice) if self.discrete else advice[..., -1]
@@ -528,6 +593,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
         # them, and the replayed rows (states, advice) of every minibatch the update may take
         x = self._update_rows(data["obs"] if self.normalizer is None else data["net_obs"])
         replay = None
+        imitates = imitates and len(self.advice_buffer) > 0  # limited advice: none asked yet
         if imitates:
             replay = self._replay_plan(cfg.n_epochs * -(-n // cfg.batch_size))
         cols = self._narrowed_columns(x, replay)
@@ -684,13 +750,23 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             x[idx] if replayed is None else torch.cat([x[idx], self._replayed_x(replay, replayed)])
         )
         high_logits, low_out, values, latent = (h[:b] for h in heads)
+        # ask learned: the high level acted with the price each answer had in this row; its
+        # entropy bonus reads its preferences without the price (below)
+        acting_logits = None
+        if "high_shift" in data:
+            acting_logits = priced_logits(high_logits, data["high_shift"][idx])
         if "high_mask" in data:  # limited advice: the choices the high level had in each row
             high_logits = mask_logits(high_logits, data["high_mask"][idx])
+            if acting_logits is not None:
+                acting_logits = mask_logits(acting_logits, data["high_mask"][idx])
+        if acting_logits is None:
+            acting_logits = high_logits
         # low level, Eq. 3: log pi_low(a|s) A(s, a) on the EXECUTED actions
         lp_low = self._low_log_prob(low_out, latent, data["actions"][idx])
         log_probs = lp_low[None]
         if self.train_high:  # high level, Eq. 7: log pi_high(e|s) A(s, a), the SAME advantage
-            lp_high = torch.log_softmax(high_logits, -1).gather(1, data["choices"][idx].view(-1, 1))
+            lp_high = torch.log_softmax(acting_logits, -1)
+            lp_high = lp_high.gather(1, data["choices"][idx].view(-1, 1))
             log_probs = torch.stack([lp_low, lp_high.squeeze(1)])
         old = rows.old_log_probs[:, idx]
         weights = None if rows.loss is None else rows.loss[:, idx]
@@ -710,6 +786,11 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             loss = loss + distill * imitation
             log.imitation.append(imitation.detach())
         if self._use_entropy:  # skipped when both coefficients are 0 (Table 5)
+            # (ask learned: on the logits without the price. On the priced ones, nearly all on
+            # the agent, the bonus pushed the teachers' logits up against the price, which
+            # chased them (278 after 3e5 DoorKey steps), and its gradient, p_k |log p_k| for a
+            # rare teacher, favoured the likeliest one: 960 of 1,000 answers to one random
+            # teacher, results/advice-budget/NOTES.md)
             entropies = self._mean_entropies(high_logits, low_out, latent, cfg.ent_cap_high or None)
             loss = loss - (self._entropy_coefs()[: len(entropies)] * entropies).sum()
         log.losses_and_kls.append(torch.cat([policy_losses.detach(), vf_loss.detach()[None], kls]))

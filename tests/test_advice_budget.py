@@ -1,0 +1,83 @@
+"""The advice budget benchmark (benchmarks/advice_budget.py): its runs' names, one tiny grid
+that writes a run per file and skips it when present, and its report of the student alone
+beside the answers used."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+
+_DIR = Path(__file__).resolve().parents[1] / "benchmarks"
+sys.path.insert(0, str(_DIR))
+_spec = importlib.util.spec_from_file_location("advice_budget", _DIR / "advice_budget.py")
+bench = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(bench)
+
+torch.set_num_threads(1)
+
+
+def _fake(case, learner, budget, availability, seed, score, answers):
+    run = {"case": case, "learner": learner, "seed": seed, "curve": [[1000, score, 1.0, None]]}
+    if learner != "ppo":
+        run.update(
+            budget=budget,
+            availability=availability,
+            advice={"teachers": {"a": {"answers": answers}, "b": {"answers": 0}}},
+            answers=[[1000, answers, float(answers)]],
+        )
+    return run
+
+
+def test_report_shows_the_student_alone_beside_the_answers(tmp_path):
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    for run in [
+        _fake("CartPole-v1", "learned", "1e3", 1.0, 0, 500.0, 900),
+        _fake("CartPole-v1", "learned", "1e3", 1.0, 1, 400.0, 1000),
+        _fake("CartPole-v1", "early", "1e3", 0.5, 0, 200.0, 1000),
+        _fake("CartPole-v1", "ppo", "", 1.0, 0, 150.0, 0),
+    ]:
+        name = bench.run_name(
+            run["case"], run["learner"], run.get("budget", ""), run.get("availability", 1), 0
+        )
+        (runs / f"{run['seed']}-{name}").write_text(json.dumps(run))
+    table = bench.report(tmp_path)
+    assert "| CartPole-v1 | PPO alone | - | - | 1 | 1000 | 150.0 | 0 |" in table
+    assert "| CartPole-v1 | learned | 1e3 | 1 | 2 | 1000 | 450.0 +- 50.0 | 950 +- 50 |" in table
+    assert "| CartPole-v1 | early | 1e3 | 0.5 | 1 | 1000 | 200.0 | 1000 |" in table
+    assert (tmp_path / "CartPole-v1.png").exists()
+
+
+def test_a_tiny_grid_writes_each_run_once(tmp_path, monkeypatch, capsys):
+    argv = [
+        "advice_budget.py",
+        *("--envs", "CartPole-v1", "--rules", "learned", "ppo", "--budgets", "20"),
+        *("--availability", "0.5", "--seeds", "0", "--steps", "2048"),
+        *("--eval-every", "2048", "--episodes", "2", "--out", str(tmp_path)),
+    ]
+    monkeypatch.setattr(sys, "argv", argv)
+    bench.main()
+    run = json.loads(
+        (tmp_path / "runs" / "CartPole-v1__learned__b20__a0.5__seed0.json").read_text()
+    )
+    assert run["settings"]["ask"] == "learned" and run["settings"]["advice_budget"] == 20.0
+    assert run["advice"]["spent"] <= 20
+    assert {t["availability"] for t in run["advice"]["teachers"].values()} == {0.5}
+    assert run["curve"][-1][0] == 2048 and len(run["answers"]) == 1
+    assert (tmp_path / "runs" / "CartPole-v1__ppo__seed0.json").exists()
+    assert (tmp_path / "report.md").exists() and (tmp_path / "CartPole-v1.png").exists()
+    capsys.readouterr()
+    bench.main()  # everything is there: nothing to do
+    assert "0 runs to do" in capsys.readouterr().out
+
+
+def test_bad_budget_is_one_line(monkeypatch, tmp_path):
+    monkeypatch.setattr(sys, "argv", ["x", "--budgets", "lots", "--out", str(tmp_path)])
+    with pytest.raises(SystemExit) as stop:
+        bench.main()
+    assert stop.value.code == 2
