@@ -92,7 +92,8 @@ class StudentEvalCallback(BaseCallback):
 
     >>> from tlac import TLAC
     >>> model = TLAC("CartPole-v1", teachers=lambda obs: 0)  # doctest: +SKIP
-    >>> model.learn(20_000, callback=StudentEvalCallback("CartPole-v1", eval_freq=5_000))  # doctest: +SKIP
+    >>> callback = StudentEvalCallback("CartPole-v1", eval_freq=5_000)  # doctest: +SKIP
+    >>> model.learn(20_000, callback=callback)  # doctest: +SKIP
     """
 
     def __init__(

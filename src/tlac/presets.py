@@ -87,7 +87,8 @@ def stretch_schedules(hp: dict[str, Any], steps: int, horizon: Any) -> dict[str,
     ``start + (end - start) * steps / horizon``, exactly (Hopper's Table 8 schedules span 1e6
     steps; our 3e5-step studies stop at 30% of them). Numbers are kept as they are.
 
-    >>> stretch_schedules({"learning_rate": {"linear": [5e-4, 3e-5]}, "gamma": 0.99}, 300_000, 1_000_000)
+    >>> hp = {"learning_rate": {"linear": [5e-4, 3e-5]}, "gamma": 0.99}
+    >>> stretch_schedules(hp, 300_000, 1_000_000)
     {'learning_rate': {'linear': [0.0005, 0.000359]}, 'gamma': 0.99}
     >>> stretch_schedules({"clip_range": {"linear": [0.3, 0.1]}}, 10, 5)
     Traceback (most recent call last):

@@ -83,7 +83,8 @@ def next_log_step(timestep: int, interval: int) -> int:
     ``progress.csv`` on the same grid as the teacher-usage windows, whatever step it starts or
     resumes from.
 
-    >>> next_log_step(0, 500), next_log_step(499, 500), next_log_step(500, 500), next_log_step(1234, 500)
+    >>> (next_log_step(0, 500), next_log_step(499, 500), next_log_step(500, 500),
+    ...  next_log_step(1234, 500))
     (500, 500, 1000, 1500)
     """
     return (timestep // interval + 1) * interval

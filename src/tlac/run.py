@@ -289,7 +289,8 @@ def check_out_folder(out: Path, run: ResolvedRun, replace: bool) -> None:
         return
     if (out / RESULT_FILE).exists():
         raise ConfigError(
-            f"--out {str(out)!r} holds a finished run; give another folder, or --force to replace it"
+            f"--out {str(out)!r} holds a finished run; "
+            "give another folder, or --force to replace it"
         )
     if not _same_settings(out, run):
         raise ConfigError(
@@ -462,8 +463,9 @@ def resume_run(
     trust_pickle: bool = False,
 ) -> dict[str, Any]:
     """Continue the unfinished run in ``run_dir`` from its last checkpoint (``tlac train
-    --resume``). With TL-AC, DQN-TLQL and AC-Teach the continuation is exact: the run files end byte-identical to an
-    uninterrupted run's (the rows written after the checkpoint are dropped and redone)."""
+    --resume``). With TL-AC, DQN-TLQL and AC-Teach the continuation is exact: the run files end
+    byte-identical to an uninterrupted run's (the rows written after the checkpoint are dropped
+    and redone)."""
     out = Path(run_dir)
     config = load_run_config(out)
     if (out / RESULT_FILE).exists():
@@ -471,8 +473,8 @@ def resume_run(
     meta, trained_on = _read_checkpoint(out)
     if meta is None:
         raise ConfigError(
-            f"{str(out)!r} has no checkpoint to resume from (TL-AC, DQN-TLQL and AC-Teach runs write one every "
-            "--checkpoint-every steps)"
+            f"{str(out)!r} has no checkpoint to resume from "
+            "(TL-AC, DQN-TLQL and AC-Teach runs write one every --checkpoint-every steps)"
         )
     if trained_on is not None and not _names_domain(config["env"], trained_on):
         raise ConfigError(

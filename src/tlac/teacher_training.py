@@ -116,9 +116,11 @@ def make_folders(out_dir: Path, work: Path) -> None:
 
     >>> import tempfile
     >>> file = Path(tempfile.mkdtemp()) / "f"; _ = file.write_text("")
-    >>> make_folders(file / "teachers", file.parent / "work")  # doctest: +ELLIPSIS
+    >>> make_folders(file / "teachers", file.parent / "work")
+    ... # doctest: +ELLIPSIS, +NORMALIZE_WHITESPACE
     Traceback (most recent call last):
-    tlac.errors.ConfigError: --out '.../f/teachers' cannot be a folder: '.../f' is a file; expected a folder path
+    tlac.errors.ConfigError: --out '.../f/teachers' cannot be a folder: '.../f' is a file;
+    expected a folder path
     """
     for option, folder in (("--out", out_dir), ("--work-dir", work)):
         blocking = next((p for p in (folder, *folder.parents) if p.is_file()), None)
@@ -216,9 +218,9 @@ def train_teacher(
     ``work_dir`` (default ``runs/teachers/<env>-seed<seed>``) holds the checkpoint
     (``checkpoint.zip`` + ``replay_buffer.pkl`` + ``state.json``), refreshed every 10k
     steps; if it exists, training resumes from it, and as SB3's files are pickles (they can run
-    code when loaded) only with ``trust_pickle=True`` (``--trust-pickle``). ``time_limit_s`` stops training early
-    (at the next step after the limit) and still evaluates and exports what was reached;
-    the metadata records the steps actually taken. Returns the metadata dict.
+    code when loaded) only with ``trust_pickle=True`` (``--trust-pickle``). ``time_limit_s``
+    stops training early (at the next step after the limit) and still evaluates and exports
+    what was reached; the metadata records the steps actually taken. Returns the metadata dict.
     """
     if env_name not in TRAINABLE:
         from tlac.errors import UnknownNameError

@@ -690,7 +690,8 @@ class ACTeach(SB3Compat):
             )
         if len(self.teachers) != self.n_teachers:
             raise ConfigError(
-                f"ac-teach: the model was built for {self.n_teachers} teachers, got {len(self.teachers)}"
+                f"ac-teach: the model was built for {self.n_teachers} teachers, "
+                f"got {len(self.teachers)}"
             )
         if self.buffer is None:
             self.buffer = self.new_buffer()

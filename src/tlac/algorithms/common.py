@@ -46,7 +46,8 @@ def linear_epsilon(progress: float, initial: float, final: float, fraction: floa
     """Exploration rate after ``progress`` (0 -> 1) of training: linear from ``initial`` to
     ``final`` over the first ``fraction`` of training, then constant (SB3's DQN schedule).
 
-    >>> linear_epsilon(0.0, 1.0, 0.01, 0.1), linear_epsilon(0.05, 1.0, 0.01, 0.1), linear_epsilon(0.5, 1.0, 0.01, 0.1)
+    >>> (linear_epsilon(0.0, 1.0, 0.01, 0.1), linear_epsilon(0.05, 1.0, 0.01, 0.1),
+    ...  linear_epsilon(0.5, 1.0, 0.01, 0.1))
     (1.0, 0.505, 0.01)
     """
     if fraction <= 0 or progress >= fraction:
@@ -171,7 +172,8 @@ def space_to_data(space: gym.Space) -> dict[str, Any]:
 
     >>> space_to_data(gym.spaces.Discrete(3))
     {'type': 'Discrete', 'n': 3, 'start': 0}
-    >>> space_from_data(space_to_data(gym.spaces.Box(-1.0, 1.0, (2,)))) == gym.spaces.Box(-1.0, 1.0, (2,))
+    >>> box = gym.spaces.Box(-1.0, 1.0, (2,))
+    >>> space_from_data(space_to_data(box)) == box
     True
     >>> d = gym.spaces.Dict({"a": gym.spaces.MultiDiscrete([2, 3]), "b": gym.spaces.MultiBinary(2)})
     >>> space_to_data(d)["spaces"][0]
@@ -414,9 +416,10 @@ def check_observations(obs: Any, space: gym.Space) -> tuple[np.ndarray, bool]:
     >>> box = gym.spaces.Box(0.0, 1.0, (2,))
     >>> check_observations([0.5, 0.5], box)[0].shape, check_observations(np.zeros((3, 2)), box)[1]
     ((1, 2), False)
-    >>> check_observations(np.zeros(4), box)
+    >>> check_observations(np.zeros(4), box)  # doctest: +NORMALIZE_WHITESPACE
     Traceback (most recent call last):
-    tlac.errors.ConfigError: predict: expected one observation of shape (2,) or a batch (n, 2), got shape (4,)
+    tlac.errors.ConfigError: predict: expected one observation of shape (2,) or a batch (n, 2),
+    got shape (4,)
     """
     try:
         array = np.asarray(obs)  # the caller's dtype is kept: teachers get what they expect
@@ -424,7 +427,8 @@ def check_observations(obs: Any, space: gym.Space) -> tuple[np.ndarray, bool]:
         array = None
     if array is None or array.dtype.kind not in "biuf":
         raise ConfigError(
-            f"predict: expected numeric observations of shape {space.shape}, got {type(obs).__name__}"
+            f"predict: expected numeric observations of shape {space.shape}, "
+            f"got {type(obs).__name__}"
         )
     shape = tuple(space.shape or ())
     if array.shape == shape:

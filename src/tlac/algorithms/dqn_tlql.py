@@ -177,7 +177,8 @@ class DQNTLQL(SB3Compat):
         if not isinstance(action_space, gym.spaces.Discrete):
             raise ConfigError(
                 f"dqn-tlql needs a Discrete action space, got {action_space}; "
-                "DQN-TLQL does not support continuous control (paper, section 4.1): use tlac or ac-teach"
+                "DQN-TLQL does not support continuous control (paper, section 4.1): "
+                "use tlac or ac-teach"
             )
         self.observation_space, self.action_space = obs_space, action_space
         self.obs_dim = int(np.prod(obs_space.shape))

@@ -403,7 +403,8 @@ class AdviceBuffer:
 
     >>> buf = AdviceBuffer(capacity=3, obs_dim=2, advice_shape=(2,), advice_dtype=torch.int64)
     >>> buf.add(torch.ones(2, 2), torch.tensor([[0, 1], [4, 5]]))   # 2 teachers, 2 states
-    >>> buf.add(torch.ones(2, 2), torch.tensor([[2, 3], [6, 7]]))   # the 4th state overwrites the 1st
+    >>> # the 4th state overwrites the 1st:
+    >>> buf.add(torch.ones(2, 2), torch.tensor([[2, 3], [6, 7]]))
     >>> len(buf), buf.advice[:, 0].tolist(), buf.advice[:, 1].tolist()
     (3, [3, 1, 2], [7, 5, 6])
     """

@@ -45,7 +45,8 @@ class StackedMLP(nn.Module):
         depths = {len(h) for h in hidden}
         if len(depths) != 1:
             raise ValueError(
-                f"all levels need the same number of hidden layers to share one stacked network, got {hidden}"
+                "all levels need the same number of hidden layers to share one stacked network, "
+                f"got {hidden}"
             )
         self.members = len(hidden)
         self.out_dims = list(out_dims)

@@ -8,7 +8,9 @@ the rollout and the advice buffer store; how such a row becomes the raw observat
 which the teachers are given; and (:class:`ObsEncoder`) what the networks see of a row.
 
 >>> import gymnasium as gym
->>> space = gym.spaces.Dict({"pos": gym.spaces.Box(-1.0, 1.0, (2,)), "room": gym.spaces.Discrete(3)})
+>>> space = gym.spaces.Dict(
+...     {"pos": gym.spaces.Box(-1.0, 1.0, (2,)), "room": gym.spaces.Discrete(3)}
+... )
 >>> layout = make_layout(space, ObsPolicy(), "auto")
 >>> rows = layout.flatten({"pos": np.array([0.5, -0.5]), "room": 2})
 >>> rows.tolist()                                  # keys in the space's order: pos, room
@@ -91,7 +93,9 @@ class ObsPolicy:
         >>> from stable_baselines3.common.torch_layers import NatureCNN
         >>> kwargs = dict(features_extractor_class=NatureCNN, net_arch=[32, 32])
         >>> ObsPolicy.from_arguments("MlpPolicy", {"policy_kwargs": kwargs})
-        (ObsPolicy(policy='CnnPolicy', features_dim=None, normalize_images=True), {'policy_kwargs': {'net_arch': [32, 32]}})
+        ... # doctest: +NORMALIZE_WHITESPACE
+        (ObsPolicy(policy='CnnPolicy', features_dim=None, normalize_images=True),
+         {'policy_kwargs': {'net_arch': [32, 32]}})
         """
         if not isinstance(policy, str):
             raise ConfigError(
@@ -263,8 +267,11 @@ def check_space_kinds(space: gym.Space) -> None:
     before an environment is wrapped (SB3's DummyVecEnv fails on a text key with a TypeError).
 
     >>> check_space_kinds(gym.spaces.Dict({"note": gym.spaces.Text(8)}))
+    ... # doctest: +NORMALIZE_WHITESPACE
     Traceback (most recent call last):
-    tlac.errors.ConfigError: key 'note' of the Dict observation space is a Text, which TL-AC cannot read (nor can SB3: Box, Discrete, MultiDiscrete and MultiBinary keys only); drop it, e.g. gymnasium.wrappers.FilterObservation(env, [the other keys])
+    tlac.errors.ConfigError: key 'note' of the Dict observation space is a Text, which TL-AC
+    cannot read (nor can SB3: Box, Discrete, MultiDiscrete and MultiBinary keys only); drop it,
+    e.g. gymnasium.wrappers.FilterObservation(env, [the other keys])
     """
     if isinstance(space, gym.spaces.Dict):
         for key, sub in space.spaces.items():

@@ -114,7 +114,8 @@ def restore_vec_env(venv: Any, state: dict[str, Any]) -> bool:
     episodes = state.get("episodes")
     if episodes is not None and len(episodes) != len(inner.envs):
         raise ConfigError(
-            f"the checkpoint holds {len(episodes)} environments, the given env has {len(inner.envs)}"
+            f"the checkpoint holds {len(episodes)} environments, "
+            f"the given env has {len(inner.envs)}"
         )
     exact = episodes is not None and all(
         isinstance(env, EpisodeLog) and env.replay(episode)

@@ -140,9 +140,9 @@ def sb3_kwargs(algo: str, hp: dict[str, Any]) -> dict[str, Any]:
         if is_flag and not isinstance(value, bool):
             raise ConfigError(f"{algo} setting {key} must be true or false, got {value!r}")
         if key not in accepted:
+            known = sorted(accepted | {"net_arch", "optimizer", "optimizer_eps", *_POLICY_KEYS})
             raise ConfigError(
-                f"unknown {algo} hyperparameter {key!r}; expected one of: "
-                f"{', '.join(sorted(accepted | {'net_arch', 'optimizer', 'optimizer_eps', *_POLICY_KEYS}))}"
+                f"unknown {algo} hyperparameter {key!r}; expected one of: {', '.join(known)}"
             )
         if isinstance(value, dict):  # a schedule where SB3 takes only a number
             raise ConfigError(

@@ -102,7 +102,8 @@ def summarize_update(log: UpdateLog, levels: int) -> dict[str, float]:
     >>> log = UpdateLog([torch.tensor([1.0, 2.0, 0.1]), torch.tensor([3.0, 4.0, 0.3])],
     ...                 [torch.tensor([0.5])])
     >>> summary = summarize_update(log, 1)
-    >>> summary["train/policy_loss_low"], summary["train/value_loss"], summary["train/clip_fraction"]
+    >>> (summary["train/policy_loss_low"], summary["train/value_loss"],
+    ...  summary["train/clip_fraction"])
     (2.0, 3.0, 0.5)
     """
     names = ["low", "high"][:levels]
@@ -135,7 +136,8 @@ class ReplayDraws:
     >>> rows = draws.idx[draws.next()]
     >>> draws.finish()   # one minibatch taken: the generator moves by its 4 draws only
     >>> ref = torch.Generator().manual_seed(0)
-    >>> torch.equal(rows, torch.randint(100, (4,), generator=ref)), g.get_state().equal(ref.get_state())
+    >>> (torch.equal(rows, torch.randint(100, (4,), generator=ref)),
+    ...  g.get_state().equal(ref.get_state()))
     (True, True)
     """
 

@@ -292,7 +292,8 @@ def _cmd_eval(args: argparse.Namespace) -> int:
         print(json.dumps(result))
     else:
         print(
-            f"student alone ({len(returns)} episodes): {result['student_mean']:.3f} +- {result['student_std']:.3f}"
+            f"student alone ({len(returns)} episodes): "
+            f"{result['student_mean']:.3f} +- {result['student_std']:.3f}"
         )
         if args.with_teachers:
             print(
@@ -453,8 +454,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--resume",
         metavar="RUN",
         default=None,
-        help="continue the unfinished run RUN (TL-AC, DQN-TLQL, AC-Teach) from its last checkpoint (other flags "
-        "except --no-progress and --checkpoint-every are taken from RUN/config.yaml)",
+        help="continue the unfinished run RUN (TL-AC, DQN-TLQL, AC-Teach) from its last checkpoint "
+        "(other flags except --no-progress and --checkpoint-every are taken from RUN/config.yaml)",
     )
     train.add_argument(
         "--checkpoint-every",

@@ -34,7 +34,8 @@ def register(subparsers: Any) -> argparse.ArgumentParser:
 
     train = sub.add_parser(
         "train",
-        help="train a SAC (Hopper) or PPO (DoorKey) teacher and export its actor (paper appendix A.1.1, A.2.1)",
+        help="train a SAC (Hopper) or PPO (DoorKey) teacher and export its actor "
+        "(paper appendix A.1.1, A.2.1)",
         description="Train stable-baselines3 SAC on ENV, checkpointing every 10k steps "
         "(rerunning resumes from the checkpoint), then evaluate the deterministic actor "
         "and write <out>/<env>-sac.pt and <env>-sac.json.",
@@ -90,7 +91,10 @@ def _train(args: argparse.Namespace) -> int:
         rest = argv[argv.index("train") + 1 :]
         command = "tlac teacher train " + " ".join(shlex.quote(a) for a in rest)
     else:  # called programmatically
-        command = f"tlac teacher train {args.env} --steps {args.steps} --seed {args.seed} --out {args.out}"
+        command = (
+            f"tlac teacher train {args.env} --steps {args.steps} --seed {args.seed} "
+            f"--out {args.out}"
+        )
     train_teacher(
         args.env,
         args.steps,

@@ -51,7 +51,8 @@ class Domain:
     teacher_names: tuple[str, ...]
     """The named teachers of the paper for this domain (``optimal``, ``good``, ...)."""
     make_teacher: Callable[[str, gym.Env, int], Teacher]
-    """``(name, env, seed) -> Teacher``; the env gives the spaces (and unwrapped state if needed)."""
+    """``(name, env, seed) -> Teacher``; the env gives the spaces (and unwrapped state if
+    needed)."""
     region_names: tuple[str, ...] = ("all",)
     """Names of the state-space regions used for teacher-usage statistics."""
     region_of: Callable[[np.ndarray], np.ndarray] | None = None

@@ -196,7 +196,10 @@ def jumpstart_section(
         f"(paper, Tables 1-3)."
     )
     if paper_source is not None:
-        note += f" In brackets: the paper's value for the same cell ({paper_source}); its initial window is not stated."
+        note += (
+            f" In brackets: the paper's value for the same cell ({paper_source}); "
+            "its initial window is not stated."
+        )
     return "## Jumpstart\n\n" + note + "\n\n" + markdown_table(header, rows)
 
 
@@ -275,7 +278,8 @@ def iqm_section(config: ExperimentConfig, table: pd.DataFrame) -> str:
         )
     return (
         "## Interquartile mean\n\nIQM over all runs of an algorithm (every teacher set and seed), "
-        f"with a 95% stratified-bootstrap confidence interval ({c.metrics.bootstrap_reps} resamples, "
+        "with a 95% stratified-bootstrap confidence interval "
+        f"({c.metrics.bootstrap_reps} resamples, "
         f"random state {c.metrics.bootstrap_seed}; runs resampled within each teacher set), as in "
         "Agarwal et al. 2021. Teacher sets have different ceilings, so the raw IQM mixes "
         "them; the normalised column divides each run's score by the best teacher's own "

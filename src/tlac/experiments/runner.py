@@ -78,7 +78,8 @@ class GridSummary:
 
     def lines(self) -> list[str]:
         out = [
-            f"{self.total} runs: {self.skipped} already finished, {len(self.finished)} finished now, "
+            f"{self.total} runs: {self.skipped} already finished, "
+            f"{len(self.finished)} finished now, "
             f"{len(self.failed)} failed" + (" (interrupted)" if self.interrupted else "")
         ]
         out += [f"FAILED {name}: {err}" for name, err in self.failed.items()]
@@ -486,7 +487,8 @@ class Display:
         text.append(f" | {len(self.running)} running | ")
         text.append(f"{len(self.failed)} failed", style="bold red" if self.failed else "")
         text.append(
-            f" | elapsed {_fmt_time(time.time() - self.start)} | time left ~{_fmt_time(self.eta(self.peek))}"
+            f" | elapsed {_fmt_time(time.time() - self.start)} "
+            f"| time left ~{_fmt_time(self.eta(self.peek))}"
         )
         for name in sorted(self.running):
             step = latest_step(run_dir(self.out, name)) if self.peek else 0
@@ -511,7 +513,8 @@ class Display:
         self.done.add(name)
         if not self.live_mode:
             self.console.print(
-                f"[{len(self.done) + self.skipped}/{self.total_runs}] finished {name} in {wall:.1f}s "
+                f"[{len(self.done) + self.skipped}/{self.total_runs}] "
+                f"finished {name} in {wall:.1f}s "
                 f"(time left ~{_fmt_time(self.eta(self.peek))})"
             )
         self.refresh()

@@ -232,8 +232,10 @@ def numeric_actions(teacher_name: str, actions: Any, action_space: gym.Space) ->
     >>> numeric_actions("t", np.array([1, 0], dtype=object), gym.spaces.Discrete(2)).tolist()
     [1.0, 0.0]
     >>> numeric_actions("t", np.array(["left"]), gym.spaces.Discrete(2))
+    ... # doctest: +NORMALIZE_WHITESPACE
     Traceback (most recent call last):
-    tlac.errors.TeacherError: teacher 't' returned actions of dtype <U4 ('left'); expected numbers, actions of Discrete(2)
+    tlac.errors.TeacherError: teacher 't' returned actions of dtype <U4 ('left');
+    expected numbers, actions of Discrete(2)
     """
     try:
         arr = np.asarray(actions)
@@ -281,7 +283,8 @@ def check_actions(teacher_name: str, actions: Any, action_space: gym.Space, n: i
         expected = (n, *action_space.shape)
         if arr.shape != expected:
             raise TeacherError(
-                f"teacher {teacher_name!r} returned actions of shape {arr.shape}; expected {expected}"
+                f"teacher {teacher_name!r} returned actions of shape {arr.shape}; "
+                f"expected {expected}"
             )
         arr = arr.astype(np.float32)
         if np.isnan(arr).any():

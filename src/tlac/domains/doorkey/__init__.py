@@ -42,7 +42,8 @@ DOMAIN = Domain(
 
 PARTIAL_DOMAIN = Domain(
     name="doorkey-partial",
-    description="MiniGrid DoorKey 7x7 as MiniGrid observes it: the agent's 7x7 view (147 values), 6 actions",
+    description="MiniGrid DoorKey 7x7 as MiniGrid observes it: the agent's 7x7 view "
+    "(147 values), 6 actions",
     make_env=make_partial_doorkey_env,
     teacher_names=PARTIAL_TEACHER_NAMES,
     make_teacher=make_partial_teacher,

@@ -199,7 +199,8 @@ REGION_NAMES = ("left", "right")
 
 class PartialView(gym.ObservationWrapper):
     """The agent's egocentric 7x7 view (MiniGrid's default observation), flattened to 147
-    ``uint8`` values, computed from the full grid (:func:`tlac.domains.doorkey.view.partial_view`)."""
+    ``uint8`` values, computed from the full grid
+    (:func:`tlac.domains.doorkey.view.partial_view`)."""
 
     def __init__(self, env: gym.Env):
         super().__init__(env)

@@ -9,7 +9,8 @@ from tlac.domains.pickplace.teachers import TEACHER_NAMES, make_teacher
 
 DOMAIN = Domain(
     name="pickplace",
-    description="Fetch Pick & Place (AC-Teach's): fixed goal, dense reward, 25-dim obs, 4-dim action",
+    description="Fetch Pick & Place (AC-Teach's): fixed goal, dense reward, 25-dim obs, "
+    "4-dim action",
     make_env=make_env,
     teacher_names=TEACHER_NAMES,
     make_teacher=make_teacher,
