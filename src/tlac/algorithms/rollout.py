@@ -89,7 +89,8 @@ def compute_gae(
     With ``gae_lambda = 0`` the advantage is exactly the paper's Eq. 2:
     ``A = r_t + gamma V(s_{t+1}) - V(s_t)``.
 
-    >>> adv, ret = compute_gae(np.array([[1.0]]), np.array([[0.5]]), np.array([[0.0]]), np.array([2.0]), 0.9, 0.0)
+    >>> one = lambda x: np.array([[x]])
+    >>> adv, ret = compute_gae(one(1.0), one(0.5), one(0.0), np.array([2.0]), 0.9, 0.0)
     >>> round(float(adv[0, 0]), 6)   # 1 + 0.9 * 2 - 0.5
     2.3
     """

@@ -284,8 +284,8 @@ class TLACConfig:
     rows train the high level like its own choices, so it learns whom to follow where per-step
     mixing never completes a task (MountainCar). The first episodes audition: the student
     alone until its floor is measured, then each teacher leads 3, and under wean_imitation
-    nothing is copied until then (SoloEpisodes.auditioning). 0: none (both variants); presets/default.yaml sets it
-    (docs/graduation.md)."""
+    nothing is copied until then (SoloEpisodes.auditioning). 0: none (both variants);
+    presets/default.yaml sets it (docs/graduation.md)."""
     kl_rows: str | None = None
     """Which rows give the low level's approximate KL for the target-KL stop: agent (where the
     agent acted: pi_low's own samples), all (every row, as a PPO built on SB3 computes it) or
@@ -299,10 +299,10 @@ class TLACConfig:
     low_level_data: str | None = None
     """Which transitions train the low level's policy gradient: all (the paper, Eq. 3 on every
     executed action), agent (only where it acted, so every ratio is an importance weight of
-    pi_low's own samples; the preset of a user's environment) or silent (the agent's rows in the states
-    where every teacher's advice is uniform, losses.silent_states: a random teacher, a partial
-    one outside its region, so the student learns from its own returns where no teacher knows
-    the way; elsewhere the imitation term alone trains the low level. Before the imitation
+    pi_low's own samples; the preset of a user's environment) or silent (the agent's rows in the
+    states where every teacher's advice is uniform, losses.silent_states: a random teacher, a
+    partial one outside its region, so the student learns from its own returns where no teacher
+    knows the way; elsewhere the imitation term alone trains the low level. Before the imitation
     term holds advice, and without teachers, the agent's rows; with Box actions no state is
     silent). None: the variant's (graduate silent, paper all)."""
     advice: AdviceSettings = field(default_factory=AdviceSettings)
@@ -379,7 +379,8 @@ class TLACConfig:
 
         if self.normalize_obs not in (True, False, "auto"):
             raise ConfigError(
-                f"TL-AC setting normalize_obs must be true, false or 'auto', got {self.normalize_obs!r}"
+                "TL-AC setting normalize_obs must be true, false or 'auto', "
+                f"got {self.normalize_obs!r}"
             )
         if self.teacher_episodes > 0 and not self.solo_budget:
             raise ConfigError(
@@ -399,8 +400,9 @@ class TLACConfig:
         depths = {len(self.net_arch_high), len(self.net_arch_low), len(self.net_arch_critic)}
         if len(depths) != 1 or 0 in depths:
             raise ConfigError(
-                "net_arch_high, net_arch_low and net_arch_critic must have the same, non-zero number "
-                f"of layers (widths may differ), got {self.net_arch_high}, {self.net_arch_low}, {self.net_arch_critic}"
+                "net_arch_high, net_arch_low and net_arch_critic must have the same, non-zero "
+                "number of layers (widths may differ), got "
+                f"{self.net_arch_high}, {self.net_arch_low}, {self.net_arch_critic}"
             )
 
 
@@ -435,8 +437,13 @@ def settings_from_policy_kwargs(policy_kwargs: Any) -> dict[str, Any]:
     ``dict(pi=[...], vf=[...])``: both actors, the critic), ``log_std_init`` and
     ``ortho_init``. Anything else is a ConfigError naming it; settings given directly win.
 
-    >>> settings_from_policy_kwargs({"net_arch": {"pi": [32], "vf": [16]}, "ortho_init": False})
-    {'net_arch_high': [32], 'net_arch_low': [32], 'net_arch_critic': [16], 'ortho_init_high': False, 'ortho_init_low': False}
+    >>> settings = settings_from_policy_kwargs(
+    ...     {"net_arch": {"pi": [32], "vf": [16]}, "ortho_init": False}
+    ... )
+    >>> settings["net_arch_high"], settings["net_arch_low"], settings["net_arch_critic"]
+    ([32], [32], [16])
+    >>> settings["ortho_init_high"], settings["ortho_init_low"]
+    (False, False)
     """
     if policy_kwargs is None:
         return {}

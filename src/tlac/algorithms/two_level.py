@@ -1028,6 +1028,7 @@ class TLAC(TLACHeads, SB3Compat, TLACPersistence):
             raise ConfigError("this model has no environment: pass env= to TLAC.load to train it")
         if len(self.teachers) != self.n_teachers:
             raise ConfigError(
-                f"this model was trained with {self.n_teachers} teachers ({', '.join(self.teacher_names)}); "
+                f"this model was trained with {self.n_teachers} teachers "
+                f"({', '.join(self.teacher_names)}); "
                 "pass the same number as teachers= to TLAC.load to train it further"
             )
