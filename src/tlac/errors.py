@@ -43,7 +43,6 @@ def require_extra(extra: str, what: str, *modules: str) -> None:
 
     >>> require_extra("experiments", "tlac report", "json")
     >>> require_extra("experiments", "tlac report", "no_such_module_x")
-    ... # doctest: +NORMALIZE_WHITESPACE
     Traceback (most recent call last):
     tlac.errors.ConfigError: tlac report needs no_such_module_x, which is not installed:
     pip install 'tlac[experiments]'
@@ -108,7 +107,6 @@ def strict_yaml_load(text: str, where: str) -> object:
     expand to more than :data:`MAX_YAML_VALUES` values.
 
     >>> strict_yaml_load("steps: 5\nseeds: 2\nsteps: 6\n", "x.yaml")
-    ... # doctest: +NORMALIZE_WHITESPACE
     Traceback (most recent call last):
     tlac.errors.ConfigError: x.yaml: line 3: key 'steps' is given twice (first on line 1);
     give each key once

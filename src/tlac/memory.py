@@ -7,7 +7,6 @@ what it would take, rather than an allocator's traceback or a machine that start
 '3.0 GiB'
 >>> check_fits({"tiny": 10}, "lower it")  # no error: far below any machine's memory
 >>> check_fits({"rollout (n_steps=10**20)": 4 * 10**20}, "lower n_steps")
-... # doctest: +NORMALIZE_WHITESPACE
 Traceback (most recent call last):
 tlac.errors.ConfigError: rollout (n_steps=10**20) would take about 347 EiB of memory,
 more than this machine has available (...); lower n_steps

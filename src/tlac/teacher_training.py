@@ -117,7 +117,6 @@ def make_folders(out_dir: Path, work: Path) -> None:
     >>> import tempfile
     >>> file = Path(tempfile.mkdtemp()) / "f"; _ = file.write_text("")
     >>> make_folders(file / "teachers", file.parent / "work")
-    ... # doctest: +ELLIPSIS, +NORMALIZE_WHITESPACE
     Traceback (most recent call last):
     tlac.errors.ConfigError: --out '.../f/teachers' cannot be a folder: '.../f' is a file;
     expected a folder path

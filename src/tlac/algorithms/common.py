@@ -416,7 +416,7 @@ def check_observations(obs: Any, space: gym.Space) -> tuple[np.ndarray, bool]:
     >>> box = gym.spaces.Box(0.0, 1.0, (2,))
     >>> check_observations([0.5, 0.5], box)[0].shape, check_observations(np.zeros((3, 2)), box)[1]
     ((1, 2), False)
-    >>> check_observations(np.zeros(4), box)  # doctest: +NORMALIZE_WHITESPACE
+    >>> check_observations(np.zeros(4), box)
     Traceback (most recent call last):
     tlac.errors.ConfigError: predict: expected one observation of shape (2,) or a batch (n, 2),
     got shape (4,)

@@ -93,7 +93,6 @@ class ObsPolicy:
         >>> from stable_baselines3.common.torch_layers import NatureCNN
         >>> kwargs = dict(features_extractor_class=NatureCNN, net_arch=[32, 32])
         >>> ObsPolicy.from_arguments("MlpPolicy", {"policy_kwargs": kwargs})
-        ... # doctest: +NORMALIZE_WHITESPACE
         (ObsPolicy(policy='CnnPolicy', features_dim=None, normalize_images=True),
          {'policy_kwargs': {'net_arch': [32, 32]}})
         """
@@ -267,7 +266,6 @@ def check_space_kinds(space: gym.Space) -> None:
     before an environment is wrapped (SB3's DummyVecEnv fails on a text key with a TypeError).
 
     >>> check_space_kinds(gym.spaces.Dict({"note": gym.spaces.Text(8)}))
-    ... # doctest: +NORMALIZE_WHITESPACE
     Traceback (most recent call last):
     tlac.errors.ConfigError: key 'note' of the Dict observation space is a Text, which TL-AC
     cannot read (nor can SB3: Box, Discrete, MultiDiscrete and MultiBinary keys only); drop it,

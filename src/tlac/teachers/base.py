@@ -232,7 +232,6 @@ def numeric_actions(teacher_name: str, actions: Any, action_space: gym.Space) ->
     >>> numeric_actions("t", np.array([1, 0], dtype=object), gym.spaces.Discrete(2)).tolist()
     [1.0, 0.0]
     >>> numeric_actions("t", np.array(["left"]), gym.spaces.Discrete(2))
-    ... # doctest: +NORMALIZE_WHITESPACE
     Traceback (most recent call last):
     tlac.errors.TeacherError: teacher 't' returned actions of dtype <U4 ('left');
     expected numbers, actions of Discrete(2)
