@@ -141,6 +141,19 @@ def test_python_api_uses_the_domain_preset():
     assert TLAC("hopper", teachers=[], n_steps=32, batch_size=32).config.n_steps == 32
 
 
+def test_a_preset_value_given_per_variant_follows_the_run_variant():
+    preset = {"n_steps": 16, "max_grad_norm": {"graduate": 100.0, "paper": 0.5}}
+    assert TLACConfig.from_settings(preset).max_grad_norm == 100.0
+    assert TLACConfig.from_settings({**preset, "variant": "paper"}).max_grad_norm == 0.5
+    # a schedule ({linear: ...}) and the advice mapping are not values per variant
+    cfg = TLACConfig.from_settings({"learning_rate": {"linear": [1e-3, 0.0]}})
+    assert cfg.learning_rate == {"linear": [1e-3, 0.0]}
+    with pytest.raises(ConfigError, match=r"max_grad_norm.*'paper'"):
+        TLACConfig.from_settings({"variant": "paper", "max_grad_norm": {"graduate": 1.0}})
+    with pytest.raises(ConfigError, match="unknown variant 'papr'"):
+        TLACConfig.from_settings({**preset, "variant": "papr"})
+
+
 def test_a_users_environment_gets_the_default_preset():
     default = load_preset("default", "tlac")
     # docs/graduation.md, "Users' own environments": SB3 PPO's rollouts, the student's own

@@ -41,6 +41,39 @@ def load_preset(name: str, algo: str) -> dict[str, Any]:
     return dict(table[algo] or {})
 
 
+VARIANTS = ("graduate", "paper")
+"""TL-AC's variants (``TLACConfig.variant``), the keys of a preset value given per variant."""
+DEFAULT_VARIANT = "graduate"
+
+
+def settle_variant_values(settings: dict[str, Any]) -> dict[str, Any]:
+    """``settings`` with every value given per TL-AC variant (``{graduate: 100.0, paper: 0.5}``
+    in a preset) replaced by the one of the run's variant (``settings["variant"]``, else
+    the default, graduate). A preset gives a value per variant where the paper's table and the
+    graduate variant need different ones on the same domain.
+
+    >>> settle_variant_values({"max_grad_norm": {"graduate": 100.0, "paper": 0.5}})
+    {'max_grad_norm': 100.0}
+    >>> settle_variant_values(
+    ...     {"variant": "paper", "max_grad_norm": {"graduate": 100.0, "paper": 0.5}}
+    ... )
+    {'variant': 'paper', 'max_grad_norm': 0.5}
+    """
+    variant = settings.get("variant") or DEFAULT_VARIANT
+    if variant not in VARIANTS:
+        raise UnknownNameError("variant", variant, list(VARIANTS))
+    settled = dict(settings)
+    for name, value in settings.items():
+        if isinstance(value, dict) and value and set(value) <= set(VARIANTS):
+            if variant not in value:
+                raise ConfigError(
+                    f"setting {name} is given per variant ({', '.join(value)}) but not for the "
+                    f"run's variant {variant!r}"
+                )
+            settled[name] = value[variant]
+    return settled
+
+
 def validate_schedule(field: str, value: Any) -> None:
     """Raise :class:`ConfigError` unless ``value`` is a number, ``{linear: [start, end]}`` or a
     function (SB3's ``Schedule``)."""

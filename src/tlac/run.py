@@ -41,7 +41,7 @@ from tlac.domains import (
 )
 from tlac.errors import ConfigError, StorageError, UnknownNameError, read_yaml_file
 from tlac.evaluation import evaluate_student
-from tlac.presets import SCHEDULE_HORIZON, load_preset, stretch_schedules
+from tlac.presets import SCHEDULE_HORIZON, load_preset, settle_variant_values, stretch_schedules
 from tlac.recording import MONITOR_FILE, Recorder, platform_record
 from tlac.selectors import SELECTOR_NAMES
 from tlac.teachers.files import check_teacher_files
@@ -254,6 +254,7 @@ def hyperparameters(spec: RunSpec) -> dict[str, Any]:
         hp = stretch_schedules(hp, spec.steps, hp.pop(SCHEDULE_HORIZON))
     if spec.algo == "tlac":
         hp["selector"] = spec.selector
+        hp = settle_variant_values(hp)  # config.yaml records the value that runs
     return hp
 
 

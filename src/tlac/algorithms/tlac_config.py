@@ -17,7 +17,7 @@ from tlac.algorithms.advice import ASK_RULES
 from tlac.algorithms.encoding import ENCODINGS
 from tlac.domains import domain_names, get_domain
 from tlac.errors import ConfigError, UnknownNameError
-from tlac.presets import load_preset, validate_schedule
+from tlac.presets import DEFAULT_VARIANT, load_preset, settle_variant_values, validate_schedule
 from tlac.selectors import SELECTOR_NAMES
 from tlac.validation import Checks, from_mapping
 
@@ -228,7 +228,7 @@ class TLACConfig:
     """Hidden layers of the low-level actor (the student)."""
     net_arch_critic: list[int] = field(default_factory=lambda: [64, 64])
     """Hidden layers of the shared critic."""
-    variant: str = "graduate"
+    variant: str = DEFAULT_VARIANT
     """graduate (the default): the paper's TL-AC plus what makes the student act well ALONE
     (imitation of the teachers the high level trusts, solo episodes, on-policy low-level
     gradients, one-hot integer observations; docs/graduation.md). paper: Algorithm 1 exactly,
@@ -339,6 +339,7 @@ class TLACConfig:
     @classmethod
     def from_settings(cls, settings: dict[str, Any]) -> TLACConfig:
         """Build and validate a config; unknown keys or bad values raise ConfigError."""
+        settings = settle_variant_values(settings)
         return from_mapping(cls, "TL-AC", fold_advice_settings(settings))
 
     @property
