@@ -2,7 +2,8 @@
 environment (presets/default.yaml), pinned: a refactor that must not change what they compute
 keeps these digests. Only a commit that changes their training on purpose, and says why, may
 change a digest (2026-11-26: presets/default.yaml took SB3 PPO's rollouts and the retired
-past-teachers preset's settings; the same evening normalize_obs auto and teacher_episodes 0.3).
+past-teachers preset's settings; the same evening normalize_obs auto and teacher_episodes 0.3;
+2026-11-28: DoorKey's graduate variant clips its gradient at 100, not Table 5's 0.5).
 
 Each digest is sha256 (first 16 hex digits) of a short run's episodes.csv (DoorKey) or of the
 live networks' weights and the deployed student's greedy actions on
@@ -27,8 +28,8 @@ from tlac.recording import platform_record
 from tlac.run import RunSpec, train_run
 
 DOORKEY_GOLDEN = {
-    ("optimal", "random", "random"): ("45073656785b86a3",),
-    ("L", "R"): ("1724fd87495de20b",),
+    ("optimal", "random", "random"): ("7804e5dadfa3b290",),
+    ("L", "R"): ("3b02c94577e4a89e",),
 }
 
 
