@@ -9,7 +9,7 @@ the last 20 episodes.
 
     python lab/eq3_collapse.py --teachers ppo-noisy20,ppo-noisy20,ppo-noisy20 --seed 1
 
-docs/reproduction.md ("Why the paper variant collapses") quotes its output.
+docs/reproduction.md ("Claims and verdicts") and results/eq3-collapse quote its output.
 """
 
 from __future__ import annotations
