@@ -9,12 +9,12 @@ import pytest
 import torch
 from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
 
-from tlac.algorithms import losses
 from tlac.algorithms.nets import StackedMLP, gaussian_log_prob, np_gaussian_log_prob, np_log_softmax
 from tlac.algorithms.rollout import compute_gae
 from tlac.errors import ConfigError
 from tlac.presets import make_schedule
 from tlac.selectors import UCB1Selector, ucb1_scores
+from tlac.two_level import losses
 
 
 def test_gae_lambda_zero_is_the_papers_one_step_advantage():
@@ -165,7 +165,7 @@ def test_numpy_and_torch_log_probs_agree():
 def test_clipped_losses_stay_finite_when_a_teacher_action_was_improbable() -> None:
     """A teacher's action with old log-probability -1e4 under pi_low, now -10: the raw ratio
     exp(9990) is inf; the capped one keeps loss, KL and gradient finite."""
-    from tlac.algorithms.losses import MAX_LOG_RATIO, clipped_policy_losses
+    from tlac.two_level.losses import MAX_LOG_RATIO, clipped_policy_losses
 
     log_prob = torch.tensor([[-10.0, -1.0]], requires_grad=True)
     old = torch.tensor([[-1e4, -1.0]])
@@ -212,37 +212,44 @@ def test_per_level_step_clips_each_network_alone_and_leaves_a_stopped_level_unto
     ro = model.collect()
     data = ro.flat()
     idx = torch.arange(min(16, data["obs"].shape[0]))
-    from tlac.algorithms.tlac_update import UpdateLog, row_weights
+    from tlac.two_level.rows import row_weights
+    from tlac.two_level.steps import gradient_step_per_level, moments
+    from tlac.two_level.summary import UpdateLog
+    from tlac.two_level.update import minibatch_loss
 
     rows = row_weights(model.config, data, model.n_teachers, True, False, False)
 
     def loss():
-        return model._minibatch_loss(data, idx, rows, 0.2, None, UpdateLog())[0]
+        return minibatch_loss(model, data, idx, rows, 0.2, None, UpdateLog())[0]
 
     def member(m):  # every tensor of member m: weights and optimiser statistics
         out = []
-        for p in model.net.parameters():
-            out += [p.data[m].clone()] + [v[m].clone() for v in model._moments(p)]
-        if m == LOW and model.log_std is not None:
-            out += [model.log_std.data.clone()] + [v.clone() for v in model._moments(model.log_std)]
+        for p in model.nets.net.parameters():
+            out += [p.data[m].clone()] + [v[m].clone() for v in moments(model.optimizer, p)]
+        if m == LOW and model.nets.log_std is not None:
+            out += [model.nets.log_std.data.clone()] + [
+                v.clone() for v in moments(model.optimizer, model.nets.log_std)
+            ]
         return out
 
     # each member's gradient, clipped alone, by hand
     model.optimizer.zero_grad()
     loss().backward()
     raw = {
-        m: torch.sqrt(sum(p.grad[m].pow(2).sum() for p in model.net.parameters()))
+        m: torch.sqrt(sum(p.grad[m].pow(2).sum() for p in model.nets.net.parameters()))
         for m in (HIGH, LOW, CRITIC)
     }
-    if model.log_std is not None:
-        raw[LOW] = torch.sqrt(raw[LOW] ** 2 + model.log_std.grad.pow(2).sum())
+    if model.nets.log_std is not None:
+        raw[LOW] = torch.sqrt(raw[LOW] ** 2 + model.nets.log_std.grad.pow(2).sum())
     before = {m: member(m) for m in (HIGH, LOW, CRITIC)}
-    model._gradient_step_per_level(loss(), torch.tensor([False, True]))  # the low level stopped
+    running = torch.tensor([False, True])  # the low level stopped
+    max_norm, step = model.config.max_grad_norm, model.num_timesteps
+    gradient_step_per_level(model.nets, model.optimizer, loss(), running, max_norm, step)
     after = {m: member(m) for m in (HIGH, LOW, CRITIC)}
     assert all(torch.equal(a, b) for a, b in zip(before[LOW], after[LOW], strict=True))
     for m in (HIGH, CRITIC):
         assert not all(torch.equal(a, b) for a, b in zip(before[m], after[m], strict=True))
-        clipped = torch.sqrt(sum(p.grad[m].pow(2).sum() for p in model.net.parameters()))
+        clipped = torch.sqrt(sum(p.grad[m].pow(2).sum() for p in model.nets.net.parameters()))
         expected = min(float(raw[m]), model.config.max_grad_norm)
         assert clipped.item() == pytest.approx(expected, rel=1e-4)
 
@@ -250,7 +257,7 @@ def test_per_level_step_clips_each_network_alone_and_leaves_a_stopped_level_unto
 def test_foreach_rmsprop_and_clip_are_sb3s_and_torchs_bit_for_bit():
     """ForeachRMSpropTFLike and optim.clip_grad_norm compute exactly what SB3's RMSpropTFLike
     and torch's clip_grad_norm_ do (the golden digests rely on it), with SB3's state_dict."""
-    from tlac.algorithms.optim import ForeachRMSpropTFLike, clip_grad_norm
+    from tlac.two_level.fast import ForeachRMSpropTFLike, clip_grad_norm
 
     torch.manual_seed(0)
     shapes = [(3, 20, 8), (3, 1, 8), (3, 8, 4), (4,)]
@@ -280,7 +287,7 @@ def test_foreach_adam_is_torchs_adam_bit_for_bit():
     at a changing learning rate, over gradients of many scales, with a parameter that has no
     gradient in some steps (its own step count stays behind); options it does not compute itself
     (amsgrad) take torch's step."""
-    from tlac.algorithms.optim import ForeachAdam
+    from tlac.two_level.fast import ForeachAdam
 
     shapes = [(3, 6, 8), (3, 1, 8), (3, 8, 2), (5,)]
     for options in ({}, {"amsgrad": True}):
@@ -315,8 +322,12 @@ def test_the_first_layer_stepped_on_its_active_columns_steps_as_the_whole_layer(
     and their square averages decay exactly as a step with zero gradient decays them."""
     import copy
 
-    from tlac.algorithms.optim import ForeachRMSpropTFLike, clip_grad_norm, stepping_rows
-    from tlac.algorithms.tlac_update import active_columns
+    from tlac.two_level.fast import (
+        ForeachRMSpropTFLike,
+        active_columns,
+        clip_grad_norm,
+        stepping_rows,
+    )
 
     torch.manual_seed(0)
     whole = StackedMLP(10, [[8, 8], [6, 6], [8, 8]], [3, 5, 1], [True] * 3, [0.01, 0.01, 1.0])

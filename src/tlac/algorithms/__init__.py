@@ -17,7 +17,7 @@ from tlac.errors import UnknownNameError
 __all__ = ["ALGORITHMS", "NO_ADVICE", "Algorithm", "algorithm_names", "get_algorithm"]
 
 ALGORITHMS: dict[str, str] = {
-    "tlac": "tlac.algorithms.two_level:TLAC",
+    "tlac": "tlac.two_level:TLAC",
     "ppo": "tlac.algorithms.sb3_baselines:PPOBaseline",
     "a2c": "tlac.algorithms.sb3_baselines:A2CBaseline",
     "dqn-tlql": "tlac.algorithms.dqn_tlql:DQNTLQL",
