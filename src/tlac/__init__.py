@@ -24,9 +24,9 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
-    from tlac.two_level import TLAC, TLACConfig
     from tlac.domains import Domain, register_domain
     from tlac.evaluation import StudentEvalCallback
+    from tlac.two_level import TLAC, TLACConfig
 
 
 def __getattr__(name: str) -> Any:  # lazy: `import tlac` imports neither torch nor SB3

@@ -221,3 +221,19 @@ def sb3_locals(model: Any, local_vars: dict[str, Any], ro: Rollout, n_steps: int
         "n_rollout_steps": model.config.n_steps,
         "n_steps": n_steps,
     }
+
+
+def act_with_teachers(model: Any, obs: Any, net_obs: Any, deterministic: bool) -> np.ndarray:
+    """``TLAC.predict_with_teachers`` on a raw batch ``obs`` (``net_obs``: as the networks were
+    trained on it): the high level picks a teacher or the agent per row (Algorithm 1, line
+    14), the chosen teacher's action replaces the agent's (line 18); with ``deterministic``
+    the high level and the agent take their most likely choice."""
+    nets = model.nets
+    high_logits, low_out, _, latent = nets.act(net_obs)
+    choices = model.selector.evaluation_choices(high_logits, deterministic)
+    if deterministic:
+        actions = low_out.argmax(-1) if nets.discrete else low_out.copy()
+    else:
+        actions = nets.sample_low(low_out, latent)
+    query_teachers(model.teachers, choices, obs, model.action_space, actions)
+    return nets.to_env_actions(actions)

@@ -449,7 +449,8 @@ class AdviceBuffer:
         self.advice = torch.zeros(capacity, *advice_shape, dtype=advice_dtype)
         # track_labels (advice limited by a budget, availability or an asking rule): which
         # teachers were asked in each row; the others' advice there is a placeholder that the
-        # imitation term weighs 0 (tlac.two_level.fast.replay_plan). None: every teacher labels every row
+        # imitation term weighs 0 (tlac.two_level.fast.replay_plan). None: every teacher
+        # labels every row
         self.labelled = (
             torch.zeros(capacity, advice_shape[0], dtype=torch.bool) if track_labels else None
         )
@@ -497,3 +498,19 @@ def make_solo(cfg: TLACConfig, n_envs: int, seed: int, n_teachers: int) -> SoloE
     return SoloEpisodes(
         n_envs, cfg.solo_budget, seed, n_teachers=n_teachers, teacher_share=teacher_share
     )
+
+
+def plays_solo_greedily(cfg: TLACConfig, discrete: bool) -> bool:
+    """Whether the student plays its solo episodes greedily: with Box actions, where the low
+    level learns by imitation (low_level_data "silent"). Imitation fits its Gaussian's mean and
+    leaves its noise untrained (a fixed-variance likelihood), so a sampled solo episode
+    measures that noise rather than the student a user deploys (hopper, seed 0: the live
+    student 593 greedy against 100 sampled; the kept student, chosen on sampled solo returns,
+    stayed at 190 while the live one reached 2170)."""
+    return not discrete and bool(cfg.solo_budget) and cfg.low_level_data == "silent"
+
+
+def hands_over(cfg: TLACConfig, discrete: bool, solo: SoloEpisodes | None) -> bool:
+    """Whether weaned imitation hands a discrete student over to its own policy gradient
+    with an entropy bonus that grows with its competence (:func:`handover_entropy_coef`)."""
+    return discrete and cfg.wean_imitation and solo is not None

@@ -10,9 +10,16 @@ from collections.abc import Sequence
 from typing import Any
 
 import gymnasium as gym
+import torch
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv
 
-from tlac.algorithms.common import CheckedEnv, check_env_spaces, space_from_data
+from tlac.algorithms.common import (
+    CheckedEnv,
+    check_env_spaces,
+    check_seed,
+    random_seed,
+    space_from_data,
+)
 from tlac.algorithms.obs_spaces import check_space_kinds
 from tlac.domains import domain_names, get_domain, make_teachers, make_vec_env
 from tlac.errors import ConfigError
@@ -224,3 +231,40 @@ def resolve_inputs(
     if saved is None and teachers is not None:
         config = with_teacher_terms(config, teachers, names)
     return ModelInputs(config, venv, n_envs, name, obs_space, action_space, made, list(names))
+
+
+def seed_torch(seed: int | None, torch_threads: int | None) -> int:
+    """A new model's seed (None: as SB3, a random one), with torch's threads and global
+    generator set for the networks' initialisation."""
+    seed = random_seed() if seed is None else check_seed(seed)
+    if torch_threads is not None:  # before the initialisation: its orthogonal
+        torch.set_num_threads(torch_threads)  # matrices (QR) differ with the threads
+    torch.manual_seed(seed)  # the networks' initialisation
+    return seed
+
+
+def other_vec_env(
+    env: Any, n_envs: int, seed: int, obs_space: gym.Space, action_space: gym.Space
+) -> VecEnv:
+    """``env`` for ``TLAC.set_env``: a VecEnv of the model's spaces and ``n_envs``
+    environments, else a ConfigError."""
+    venv, _ = as_vec_env(env, n_envs, seed)
+    check_env_spaces(venv, obs_space, action_space)
+    if venv.num_envs != n_envs:
+        raise ConfigError(
+            f"set_env: the model steps {n_envs} environments at a time, got "
+            f"{venv.num_envs} (TLAC.load(path, env=...) sets them at load time)"
+        )
+    return venv
+
+
+def check_can_learn(env: VecEnv | None, teachers: list[Teacher], names: list[str]) -> None:
+    """A model learns with environments and as many teachers as it was trained with."""
+    if env is None:
+        raise ConfigError("this model has no environment: pass env= to TLAC.load to train it")
+    if len(teachers) != len(names):
+        raise ConfigError(
+            f"this model was trained with {len(names)} teachers "
+            f"({', '.join(names)}); "
+            "pass the same number as teachers= to TLAC.load to train it further"
+        )

@@ -4,12 +4,11 @@ A high-level actor pi_high(e|s) picks, in every state, which of the N teachers o
 itself acts; a low-level actor pi_low(a|s) is the student's control policy; ONE critic V(s) is
 shared by both levels (Eq. 5-6), so both are trained with the same advantage (Eq. 3, 7).
 
-Reading guide: :class:`~tlac.two_level.config.TLACConfig` (every setting of the paper's
-Tables 5, 8 and 10), :func:`tlac.two_level.collect.collect` (Algorithm 1, lines 11-23),
-:func:`tlac.two_level.update.update` (lines 5-9, with the clipped surrogate the paper's tables
-imply), :meth:`TLAC.learn` (the outer loop). The model holds its parts: the networks
-(:class:`~tlac.two_level.networks.Networks`), the optimiser, the selector, the advice ledger
-and buffer, the solo episodes, and what SB3's callbacks read (``model.sb3``).
+Reading guide: :class:`~tlac.two_level.config.TLACConfig` (the settings, the paper's Tables
+5, 8 and 10), :func:`tlac.two_level.collect.collect` (Algorithm 1, lines 11-23),
+:func:`tlac.two_level.update.update` (lines 5-9), :meth:`TLAC.learn` (the outer loop). The
+model holds plain parts: its networks (``model.nets``), optimiser, selector, advice ledger and
+buffer, solo episodes, and what SB3's callbacks read (``model.sb3``).
 
 >>> from tlac import TLAC
 >>> model = TLAC("doorkey", teachers=["optimal", "random"], seed=0, n_steps=8, batch_size=8)
@@ -30,43 +29,20 @@ import torch
 from stable_baselines3.common.logger import Logger
 from stable_baselines3.common.vec_env import VecNormalize
 
-from tlac.algorithms.callbacks import (
-    LearnCallbacks,
-    SB3Logs,
-    check_device,
-    check_sb3_arguments,
-    training_env,
-    vec_normalize_of,
-)
-from tlac.algorithms.common import (
-    check_env_spaces,
-    check_finite_weights,
-    check_seed,
-    check_total_timesteps,
-    query_teachers,
-    random_seed,
-)
-from tlac.algorithms.nets import np_sample_categorical
+from tlac.algorithms import callbacks as sb3_callbacks
+from tlac.algorithms.callbacks import LearnCallbacks, SB3Logs, check_device
+from tlac.algorithms.common import check_finite_weights, check_total_timesteps
 from tlac.algorithms.obs_spaces import POLICIES, ObsPolicy
 from tlac.algorithms.rollout import Rollout
 from tlac.algorithms.student_policy import StudentPolicy, student_policy
 from tlac.errors import ConfigError
-from tlac.presets import make_schedule
 from tlac.recording import MetricWindow, Recorder
 from tlac.selectors import make_selector
 from tlac.teachers.sb3 import FrozenObsNormalization
-from tlac.two_level import collect, persistence, update
+from tlac.two_level import collect, graduation, inputs, labels, persistence, steps, update
 from tlac.two_level.config import TLACConfig, resolve_settings
-from tlac.two_level.graduation import StudentSnapshot, make_solo
-from tlac.two_level.inputs import (
-    as_vec_env,
-    check_made_env_settings,
-    policy_first_error,
-    resolve_inputs,
-)
-from tlac.two_level.labels import make_advice_buffer, make_advice_ledger
+from tlac.two_level.graduation import StudentSnapshot
 from tlac.two_level.networks import Networks
-from tlac.two_level.steps import make_optimizer
 from tlac.two_level.summary import LearnProgress
 
 
@@ -110,7 +86,7 @@ class TLAC:
         """SB3's order, ``TLAC("MlpPolicy", env=...)``, is one clear error (not Python's
         TypeError about ``env`` given twice)."""
         if args and "env" in kwargs:
-            raise ConfigError(policy_first_error(args[0]))
+            raise ConfigError(inputs.policy_first_error(args[0]))
         return super().__new__(cls)
 
     def __init__(
@@ -127,15 +103,16 @@ class TLAC:
         policy: str = "MlpPolicy",
         **settings: Any,
     ):
-        check_sb3_arguments(verbose, tensorboard_log, device, torch_threads)
+        sb3_callbacks.check_sb3_arguments(verbose, tensorboard_log, device, torch_threads)
         if isinstance(env, str) and env in POLICIES:
-            raise ConfigError(policy_first_error(env))
-        check_made_env_settings(env, settings)
+            raise ConfigError(inputs.policy_first_error(env))
+        inputs.check_made_env_settings(env, settings)
         obs_policy, settings = ObsPolicy.from_arguments(policy, settings)
         self.verbose, self.tensorboard_log = int(verbose), tensorboard_log
         self.torch_threads = torch_threads
         config = TLACConfig.from_settings(resolve_settings(env, preset, settings))
-        self._build(config, self._seed_torch(seed), env, teachers, recorder, obs_policy)
+        seed = inputs.seed_torch(seed, torch_threads)
+        self._build(config, seed, env, teachers, recorder, obs_policy)
 
     @classmethod
     def from_config(
@@ -150,19 +127,11 @@ class TLAC:
         run's TLACConfig once (:func:`tlac.run.resolve_run`) and hands it here. SB3's
         arguments keep their defaults; ``config.n_envs`` must be ``env``'s number of
         environments where ``env`` is already made."""
-        check_made_env_settings(env, {"n_envs": config.n_envs, "vec_env": config.vec_env})
+        inputs.check_made_env_settings(env, {"n_envs": config.n_envs, "vec_env": config.vec_env})
         model = cls.__new__(cls)
-        model._build(config, model._seed_torch(seed), env, teachers, recorder, ObsPolicy())
+        seed = inputs.seed_torch(seed, model.torch_threads)
+        model._build(config, seed, env, teachers, recorder, ObsPolicy())
         return model
-
-    def _seed_torch(self, seed: int | None) -> int:
-        """The run's seed (None: as SB3, a random one), with torch's threads and global
-        generator set for the networks' initialisation."""
-        seed = random_seed() if seed is None else check_seed(seed)
-        if self.torch_threads is not None:  # before the initialisation: its orthogonal
-            torch.set_num_threads(self.torch_threads)  # matrices (QR) differ with the threads
-        torch.manual_seed(seed)  # the networks' initialisation
-        return seed
 
     def _build(
         self,
@@ -176,7 +145,7 @@ class TLAC:
     ) -> None:
         """The model's parts, for a new model or (``saved``: a model file's contents) a loaded
         one (:func:`tlac.two_level.inputs.resolve_inputs`)."""
-        made = resolve_inputs(config, seed, env, teachers, saved)
+        made = inputs.resolve_inputs(config, seed, env, teachers, saved)
         self.config = cfg = made.config
         self.seed, self.recorder, self.obs_policy = seed, recorder, obs_policy
         self.env, self.n_envs, self.env_name = made.env, made.n_envs, made.env_name
@@ -194,40 +163,26 @@ class TLAC:
         self.nets = Networks(
             cfg, *spaces, obs_policy, self.n_choices, self.n_envs, self.rng, self.train_high
         )
-        self.optimizer = make_optimizer(cfg, self.nets.params)
-        self.lr_schedule = make_schedule(cfg.learning_rate, "learning_rate")
-        self.clip_schedule = make_schedule(cfg.clip_range, "clip_range")
-        self.distill_schedule = make_schedule(cfg.distill_coef, "distill_coef")
-        self.kl_schedule = (
-            None if cfg.target_kl is None else make_schedule(cfg.target_kl, "target_kl")
+        self.optimizer = steps.make_optimizer(cfg, self.nets.params)
+        self.lr_schedule, self.clip_schedule, self.distill_schedule, self.kl_schedule = (
+            steps.make_schedules(cfg)
         )
         self.generator = torch.Generator().manual_seed(seed)  # minibatch order
         self._replay_generator = torch.Generator().manual_seed(seed + 1)  # replayed rows
         self.limited_advice = cfg.advice.limits and self.n_teachers > 0
-        self.advice = make_advice_ledger(
+        self.advice = labels.make_advice_ledger(
             cfg.advice, self.teacher_names, self.n_envs, seed, self.nets.discrete
         )
-        self.advice_buffer = make_advice_buffer(cfg, self.nets, self.limited_advice)
-        # Box actions, where the low level learns by imitation (low_level_data "silent"):
-        # the student plays its solo episodes greedily. Imitation fits its Gaussian's mean and
-        # leaves its noise untrained (a fixed-variance likelihood), so a sampled solo episode
-        # measures that noise rather than the student a user deploys (hopper, seed 0: the live
-        # student 593 greedy against 100 sampled; the kept student, chosen on sampled solo
-        # returns, stayed at 190 while the live one reached 2170)
-        self.greedy_solo = (
-            not self.nets.discrete and bool(cfg.solo_budget) and cfg.low_level_data == "silent"
-        )
-        self.solo = make_solo(cfg, self.n_envs, seed, self.n_teachers)
+        self.advice_buffer = labels.make_advice_buffer(cfg, self.nets, self.limited_advice)
+        self.greedy_solo = graduation.plays_solo_greedily(cfg, self.nets.discrete)
+        self.solo = graduation.make_solo(cfg, self.n_envs, seed, self.n_teachers)
         self.deployed: StudentSnapshot | None = None  # None: predict uses the live weights
         self._ent_coefs = torch.tensor(cfg.entropy_coefs)  # [low, high]
-        # weaned imitation hands a discrete student over to its own policy gradient with an
-        # entropy bonus that grows with its competence (graduation.handover_entropy_coef)
-        self._handover = self.nets.discrete and cfg.wean_imitation and self.solo is not None
+        self._handover = graduation.hands_over(cfg, self.nets.discrete, self.solo)
         self._use_entropy = bool(self._ent_coefs.any()) or self._handover
         # the training state: the episodes in progress; (origin, horizon) of the schedules of
-        # the learn call in progress or last made (None before any), and of an interrupted
-        # call, set by a resume; epochs begun over all updates (SB3's train/n_updates); the
-        # logging window in progress (its statistics and the high level's choices)
+        # the learn call in progress or last made, and of an interrupted call (a resume's);
+        # epochs begun (SB3's train/n_updates); the logging window in progress
         self._last_obs: Any = None
         self._episode_starts: np.ndarray | None = None
         self._episode_returns: np.ndarray | None = None
@@ -276,10 +231,9 @@ class TLAC:
         ``progress_bar``: off by default, as SB3 (``tlac train`` shows one).
         """
         total_timesteps = check_total_timesteps(total_timesteps)
-        self._check_can_learn()
-        interval = self.sb3.learn_arguments(log_interval, tb_log_name, reset_num_timesteps)
-        if interval is not None:
-            self.log_interval = interval
+        inputs.check_can_learn(self.env, self.teachers, self.teacher_names)
+        checked = self.sb3.learn_arguments(log_interval, tb_log_name, reset_num_timesteps)
+        self.log_interval = checked or self.log_interval  # steps per logged window
         if reset_num_timesteps and self._resumed_schedule is None and self.num_timesteps:
             self.num_timesteps, self._last_obs = 0, None  # SB3: a new count, new episodes
         start_steps = self.num_timesteps
@@ -319,16 +273,6 @@ class TLAC:
         progress.close()
         return self
 
-    def _check_can_learn(self) -> None:
-        if self.env is None:
-            raise ConfigError("this model has no environment: pass env= to TLAC.load to train it")
-        if len(self.teachers) != self.n_teachers:
-            raise ConfigError(
-                f"this model was trained with {self.n_teachers} teachers "
-                f"({', '.join(self.teacher_names)}); "
-                "pass the same number as teachers= to TLAC.load to train it further"
-            )
-
     def _deploy_if_worth(self, worth: bool) -> None:
         """The kept student: make the live student the one ``predict`` deploys when its recent
         solo episodes say it is worth it (after each solo episode, and at the end of ``learn``:
@@ -348,20 +292,9 @@ class TLAC:
         defaults: ``(actions, None)``, sampled unless ``deterministic`` (the greedy student,
         which tlac's evaluations and targets use); one observation gives one action, a batch
         ``(n, *obs_shape)`` gives ``n`` actions."""
-        nets = self.nets
-        obs, single = nets.check_obs(observation)
-        low_out, latent, log_std = nets.student_heads(self._vec_normalized(obs), self.deployed)
-        if deterministic:
-            actions = nets.greedy_low(low_out)
-        elif nets.discrete:
-            actions = np_sample_categorical(low_out, self.rng)
-        else:
-            noise = self.rng.standard_normal(low_out.shape) * np.exp(
-                nets.np_low_log_std(latent, log_std)
-            )
-            actions = low_out + noise.astype(np.float32)
-        env_actions = nets.to_env_actions(actions)
-        return (env_actions[0] if single else env_actions), None
+        obs, single = self.nets.check_obs(observation)
+        actions = self.nets.student_actions(self._vec_normalized(obs), self.deployed, deterministic)
+        return (actions[0] if single else actions), None
 
     @property
     def policy(self) -> StudentPolicy:
@@ -377,17 +310,8 @@ class TLAC:
         With ``deterministic`` the high level and the agent take their most likely choice."""
         if not self.teachers:
             return self.predict(obs, deterministic=deterministic)[0]
-        nets = self.nets
-        obs = nets.check_obs(obs)[0]
-        high_logits, low_out, _, latent = nets.act(self._vec_normalized(obs))
-        choices = self.selector.evaluation_choices(high_logits, deterministic)
-        if deterministic:
-            actions = low_out.argmax(-1) if nets.discrete else low_out.copy()
-        else:
-            actions = nets.sample_low(low_out, latent)
-        # Algorithm 1, line 18: the chosen teacher's action in place of the agent's
-        query_teachers(self.teachers, choices, obs, self.action_space, actions)
-        return nets.to_env_actions(actions)
+        obs = self.nets.check_obs(obs)[0]
+        return collect.act_with_teachers(self, obs, self._vec_normalized(obs), deterministic)
 
     def _vec_normalized(self, obs: Any) -> Any:
         """``predict``'s observations as the networks were trained on them: normalised by the
@@ -490,37 +414,27 @@ class TLAC:
         env or id, with the model's spaces and number of environments. ``force_reset``: start
         new episodes at the next ``learn`` (SB3's default); False continues the current ones,
         which only makes sense for the same environments."""
-        venv, _ = as_vec_env(env, self.n_envs, self.seed)
-        check_env_spaces(venv, self.observation_space, self.action_space)
-        if venv.num_envs != self.n_envs:
-            raise ConfigError(
-                f"set_env: the model steps {self.n_envs} environments at a time, got "
-                f"{venv.num_envs} (TLAC.load(path, env=...) sets them at load time)"
-            )
-        self.env, self.n_envs = venv, venv.num_envs
+        spaces = (self.observation_space, self.action_space)
+        self.env = inputs.other_vec_env(env, self.n_envs, self.seed, *spaces)
         if force_reset:
             self._last_obs = None
 
     def get_env(self) -> Any:
-        """The training environments (SB3's name): the VecEnv the user gave (or tlac made),
-        without the episode recorder tlac wraps around it (tlac.algorithms.callbacks)."""
-        return training_env(self.env)
+        """SB3's: the training VecEnv, without tlac's episode recorder."""
+        return sb3_callbacks.training_env(self.env)
 
     def get_vec_normalize_env(self) -> VecNormalize | None:
-        """The ``VecNormalize`` in the training environments' wrappers, if the user gave one
-        (SB3's name), as ``EvalCallback`` and ``CheckpointCallback`` read it."""
-        return vec_normalize_of(self.env)
+        """SB3's: the user's ``VecNormalize`` around the training environments, if any."""
+        return sb3_callbacks.vec_normalize_of(self.env)
 
     @property
     def logger(self) -> Logger:
-        """An SB3 ``Logger`` for callbacks (``EvalCallback`` records its results there); it
-        writes nothing unless you give it output formats with :meth:`set_logger`. tlac's own
-        logs are the run folder's CSVs (``tlac.recording.Recorder``)."""
+        """SB3's ``Logger`` for callbacks (``EvalCallback`` records there); it writes nothing
+        unless given output formats (:meth:`set_logger`); tlac's own logs are the run's CSVs."""
         return self.sb3.get_logger()
 
     def set_logger(self, logger: Logger) -> None:
-        """Use ``logger`` (for example ``stable_baselines3.common.logger.configure(...)``) for
-        what SB3 callbacks record."""
+        """Use ``logger`` (SB3's ``configure(...)``) for what SB3 callbacks record."""
         self.sb3.logger = logger
 
     @property

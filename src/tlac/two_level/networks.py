@@ -386,6 +386,24 @@ class Networks:
             snap.log_std,
         )
 
+    def student_actions(
+        self, obs: Any, snap: StudentSnapshot | None, deterministic: bool
+    ) -> np.ndarray:
+        """``TLAC.predict``'s actions on a raw batch ``obs``: the deployed student's (the kept
+        snapshot ``snap``, else the live low level), sampled from ``rng`` unless
+        ``deterministic``, as the environments take them."""
+        low_out, latent, log_std = self.student_heads(obs, snap)
+        if deterministic:
+            actions = self.greedy_low(low_out)
+        elif self.discrete:
+            actions = np_sample_categorical(low_out, self.rng)
+        else:
+            noise = self.rng.standard_normal(low_out.shape) * np.exp(
+                self.np_low_log_std(latent, log_std)
+            )
+            actions = low_out + noise.astype(np.float32)
+        return self.to_env_actions(actions)
+
     def snapshot_student(self, num_timesteps: int) -> StudentSnapshot:
         """A frozen copy of the live student (what ``TLAC.predict`` deploys), taken at step
         ``num_timesteps``."""

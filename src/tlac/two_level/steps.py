@@ -1,9 +1,11 @@
-"""TL-AC's optimiser and its gradient steps: one clipped step of all three networks together
-(update_rule joint, the graduate variant's), or each network's gradient clipped on its own with
-a stopped level left as it was (update_rule per_level, the paper variant's)."""
+"""TL-AC's optimiser, its schedules and its gradient steps: one clipped step of all three
+networks together (update_rule joint, the graduate variant's), or each network's gradient
+clipped on its own with a stopped level left as it was (update_rule per_level, the paper
+variant's)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import torch
@@ -13,6 +15,8 @@ from tlac.algorithms.common import stop_if_not_finite
 from tlac.algorithms.nets import HIGH, LOW, clip_coefficients, member_grad_norms
 from tlac.presets import make_schedule
 from tlac.two_level.fast import ForeachAdam, ForeachRMSpropTFLike, clip_grad_norm, optimizer_step
+
+Schedule = Callable[[float], float]
 
 if TYPE_CHECKING:
     from tlac.two_level.config import TLACConfig
@@ -27,6 +31,17 @@ def make_optimizer(cfg: TLACConfig, params: list[nn.Parameter]) -> torch.optim.O
     if cfg.optimizer == "adam":
         return ForeachAdam(params, lr=lr0, eps=cfg.optimizer_eps, foreach=True)
     return ForeachRMSpropTFLike(params, lr=lr0, alpha=0.99, eps=cfg.optimizer_eps)  # A2C's alpha
+
+
+def make_schedules(cfg: TLACConfig) -> tuple[Schedule, Schedule, Schedule, Schedule | None]:
+    """The update's schedules of the progress remaining (1 -> 0): learning rate, clip range,
+    imitation coefficient, target KL (None: no KL stop)."""
+    return (
+        make_schedule(cfg.learning_rate, "learning_rate"),
+        make_schedule(cfg.clip_range, "clip_range"),
+        make_schedule(cfg.distill_coef, "distill_coef"),
+        None if cfg.target_kl is None else make_schedule(cfg.target_kl, "target_kl"),
+    )
 
 
 def gradient_step(
