@@ -12,8 +12,8 @@ import textwrap
 
 import pytest
 
-from tlac.algorithms.ac_teach import ACTeachConfig
-from tlac.algorithms.dqn_tlql import DQNTLQLConfig
+from tlac.baselines.ac_teach import ACTeachConfig
+from tlac.baselines.dqn_tlql import DQNTLQLConfig
 from tlac.errors import ConfigError
 from tlac.experiments.config import (
     AlgorithmEntry,

@@ -109,7 +109,7 @@ def test_normalize_obs_auto_normalises_raw_observations_only() -> None:
 def test_a2c_normalize_wraps_vecnormalize_and_predicts_from_saved_statistics(tmp_path) -> None:
     from stable_baselines3.common.env_util import make_vec_env
 
-    from tlac.algorithms.sb3_baselines import A2CBaseline
+    from tlac.baselines.sb3_baselines import A2CBaseline
 
     env = make_vec_env(lambda: _Shifted(gym.make("Pendulum-v1")), n_envs=2, seed=0)
     model = A2CBaseline(env, seed=0, normalize=True, n_steps=8)
