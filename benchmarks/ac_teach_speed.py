@@ -58,7 +58,7 @@ def _children_cpu() -> float:
 
 
 def make_ac_teach(domain_name: str, seed: int):
-    from tlac.algorithms.ac_teach import ACTeach
+    from tlac.baselines.ac_teach import ACTeach
     from tlac.domains import get_domain, make_teachers, make_vec_env
     from tlac.presets import load_preset
 

@@ -170,7 +170,7 @@ def make_ppo(case: str, env: Any, seed: int) -> Any:
 
     settings: dict[str, Any] = {}
     if is_doorkey(case):
-        from tlac.algorithms.sb3_baselines import sb3_kwargs
+        from tlac.baselines.sb3_baselines import sb3_kwargs
         from tlac.presets import load_preset
 
         preset = load_preset("doorkey", "ppo")

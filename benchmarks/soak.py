@@ -47,7 +47,7 @@ def main() -> None:
     while model.num_timesteps < args.steps:
         t0 = time.perf_counter()
         model.learn(min(args.every, args.steps - model.num_timesteps), reset_num_timesteps=False)
-        finite = all(bool(torch.isfinite(p).all()) for p in model.net.parameters())
+        finite = all(bool(torch.isfinite(p).all()) for p in model.nets.net.parameters())
         returns = list(model.env.episode_returns)[-100:]
         row = {
             "steps": model.num_timesteps,

@@ -15,7 +15,7 @@ import numpy as np
 import torch
 import yaml
 
-import tlac.algorithms.two_level as two_level
+import tlac.two_level.steps as steps
 from tlac.run import RunSpec, train_run
 
 
@@ -34,14 +34,14 @@ def main() -> None:
         overrides[key] = yaml.safe_load(value)
 
     norms: list[float] = []
-    clip = two_level.clip_grad_norm
+    clip = steps.clip_grad_norm
 
     def recording_clip(grads: list[torch.Tensor], max_norm: float) -> torch.Tensor:
         norm = clip(grads, max_norm)
         norms.append(float(norm))
         return norm
 
-    two_level.clip_grad_norm = recording_clip  # the joint rule's clip (the graduate variant's)
+    steps.clip_grad_norm = recording_clip  # the joint rule's clip (the graduate variant's)
     spec = RunSpec(
         env=args.env,
         teachers=args.teachers.split(","),

@@ -67,7 +67,7 @@ def main() -> None:
     # one learn call per chunk: with the default's constant schedules this is the same run
     for _ in range(args.chunks):
         model.learn(args.steps // args.chunks, reset_num_timesteps=False)
-        high = np.exp(np_log_softmax(model._act_heads(states)[0])).mean(0)
+        high = np.exp(np_log_softmax(model.nets.act(states)[0])).mean(0)
         alone = evaluate(lambda b: model.predict(b, deterministic=True)[0], args.env, args.episodes)
         solo = model.solo.competence if model.solo is not None else float("nan")
         row = f"{model.num_timesteps} | {alone.mean():.1f} | {solo:.2f} | " + " / ".join(

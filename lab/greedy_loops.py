@@ -56,8 +56,8 @@ def main() -> None:
             action = int(model.predict(obs, deterministic=True)[0])
             if obs.tobytes() in seen and not looped:
                 looped, loops = True, loops + 1
-                low_out = model._student_heads(obs[None])[0][0]
-                high_logits = model._act_heads(obs[None])[0][0]
+                low_out = model.nets.student_heads(obs[None], model.deployed)[0][0]
+                high_logits = model.nets.act(obs[None])[0][0]
                 advised = int(reference.predict(obs[None])[0])
                 agree += int(advised == action)
                 high = np.exp(np_log_softmax(high_logits))

@@ -27,8 +27,8 @@ def main() -> None:
     args = parser.parse_args()
     torch.set_num_threads(1)
     from tlac import TLAC
-    from tlac.algorithms import losses
     from tlac.domains.doorkey.env import region_of
+    from tlac.two_level import losses
 
     settings = {k: float(v) for k, v in (s.split("=", 1) for s in args.set)}
     model = TLAC("doorkey", teachers=["L", "R"], seed=args.seed, variant=args.variant, **settings)

@@ -34,7 +34,7 @@ def path_margins(model: TLAC, reference, env, episodes: int, seed: int) -> dict[
         done = False
         while not done:
             action = int(np.asarray(reference.predict(obs[None]))[0])
-            logits = model._student_heads(obs[None])[0][0]
+            logits = model.nets.student_heads(obs[None], model.deployed)[0][0]
             probs = np.exp(logits - logits.max())
             probs /= probs.sum()
             agree.append(int(np.argmax(probs)) == action)

@@ -329,7 +329,7 @@ def test_learned_asking_paces_the_budget():
     assert run.advice.spent <= 2  # at price 0 the untrained high level would ask 2 in 3 of 32
     assert run.advice.price == pytest.approx(paced_price(price, run.advice.spent, 32, 40.0, 32_000))
     data = ro.flat()  # the update's high-level log-probabilities are those it acted with
-    high_logits = run._heads(run._update_rows(data["obs"]))[0]
+    high_logits = run.nets.heads(run.nets.update_rows(data["obs"]))[0]
     high_logits = mask_logits(priced_logits(high_logits, data["high_shift"]), data["high_mask"])
     lp = torch.log_softmax(high_logits, -1).gather(1, data["choices"].view(-1, 1)).squeeze(1)
     assert torch.allclose(lp, data["log_prob_high"], atol=1e-5)
@@ -375,7 +375,7 @@ def test_mistake_correcting_labels_only_disagreements():
 
 def _digest(model: TLAC) -> str:
     digest = hashlib.sha256()
-    for key, tensor in sorted(model.net.state_dict().items()):
+    for key, tensor in sorted(model.nets.net.state_dict().items()):
         digest.update(key.encode() + tensor.numpy().tobytes())
     return digest.hexdigest()[:16]
 

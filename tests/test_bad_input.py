@@ -378,8 +378,8 @@ def _swing(obs):
 
 def _api_cases() -> list[tuple[str, object, str]]:
     from tlac import TLAC
-    from tlac.algorithms.ac_teach import ACTeach
-    from tlac.algorithms.dqn_tlql import DQNTLQL
+    from tlac.baselines.ac_teach import ACTeach
+    from tlac.baselines.dqn_tlql import DQNTLQL
 
     def tlac(**kw):
         return lambda: TLAC("doorkey", teachers=["optimal"], **kw)

@@ -153,7 +153,7 @@ def test_train_refuses(args, fragment, tmp_path, monkeypatch, capsys):
 
 
 def test_a2c_policy_kwargs_net_arch_is_used_not_replaced():
-    from tlac.algorithms.sb3_baselines import sb3_kwargs
+    from tlac.baselines.sb3_baselines import sb3_kwargs
 
     kwargs = sb3_kwargs("a2c", {"net_arch": [64, 64], "policy_kwargs": {"net_arch": [32]}})
     assert kwargs["policy_kwargs"]["net_arch"] == {"pi": [32], "vf": [32]}
@@ -306,7 +306,7 @@ def test_a_model_used_on_another_domain_is_one_warning_line(made, tmp_path, caps
 
 
 def test_a_dqn_tlql_model_with_nan_weights_is_refused(tmp_path):
-    from tlac.algorithms.dqn_tlql import DQNTLQL
+    from tlac.baselines.dqn_tlql import DQNTLQL
     from tlac.domains import get_domain, make_vec_env
 
     venv = make_vec_env(get_domain("doorkey"), 1, 0, None)

@@ -19,7 +19,8 @@ from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from tlac.algorithms import get_algorithm
-from tlac.algorithms.ac_teach import (
+from tlac.algorithms.common import linear_epsilon, real_next_obs, td_targets
+from tlac.baselines.ac_teach import (
     ACTeach,
     BayesianCritic,
     alpha_divergence_loss,
@@ -29,9 +30,8 @@ from tlac.algorithms.ac_teach import (
     dropout_weight_decay,
     switch_probability,
 )
-from tlac.algorithms.common import linear_epsilon, real_next_obs, td_targets
-from tlac.algorithms.dqn_tlql import DQNTLQL
-from tlac.algorithms.sb3_baselines import A2CBaseline, PPOBaseline, sb3_kwargs
+from tlac.baselines.dqn_tlql import DQNTLQL
+from tlac.baselines.sb3_baselines import A2CBaseline, PPOBaseline, sb3_kwargs
 from tlac.errors import ConfigError, TeacherError
 from tlac.presets import load_preset
 from tlac.recording import EpisodeRecorder, Recorder

@@ -12,9 +12,8 @@ import textwrap
 
 import pytest
 
-from tlac.algorithms.ac_teach import ACTeachConfig
-from tlac.algorithms.dqn_tlql import DQNTLQLConfig
-from tlac.algorithms.tlac_config import TLACConfig
+from tlac.baselines.ac_teach import ACTeachConfig
+from tlac.baselines.dqn_tlql import DQNTLQLConfig
 from tlac.errors import ConfigError
 from tlac.experiments.config import (
     AlgorithmEntry,
@@ -23,6 +22,7 @@ from tlac.experiments.config import (
     MetricSettings,
     TeacherSet,
 )
+from tlac.two_level.config import TLACConfig
 
 CONFIGS = [
     TLACConfig,

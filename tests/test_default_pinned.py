@@ -73,7 +73,7 @@ def _user_run_digest(env_id: str, preset: str) -> str:
     model = TLAC(env, teachers=[teacher, _random(env.action_space, 5)], preset=preset, seed=2)
     model.learn(3000)
     digest = hashlib.sha256()
-    for key, tensor in sorted(model.net.state_dict().items()):
+    for key, tensor in sorted(model.nets.net.state_dict().items()):
         digest.update(key.encode() + tensor.detach().cpu().numpy().tobytes())
     probe = gym.make(env_id).observation_space
     probe.seed(0)

@@ -13,16 +13,7 @@ import pytest
 import torch
 
 from tlac import TLAC
-from tlac.algorithms import losses
 from tlac.algorithms.encoding import OneHotEncoder, make_encoder
-from tlac.algorithms.graduation import (
-    AdviceBuffer,
-    SoloEpisodes,
-    competence,
-    solo_probability,
-    worth_deploying,
-)
-from tlac.algorithms.two_level import VARIANT_DEFAULTS, TLACConfig
 from tlac.domains import get_domain
 from tlac.errors import ConfigError, TeacherError
 from tlac.evaluation import evaluate_student
@@ -35,6 +26,28 @@ from tlac.teachers.wrappers import (
     PartialTeacher,
     RandomTeacher,
 )
+from tlac.two_level import VARIANT_DEFAULTS, TLACConfig, fast, losses
+from tlac.two_level.graduation import (
+    AdviceBuffer,
+    SoloEpisodes,
+    competence,
+    entropy_coefs,
+    solo_probability,
+    worth_deploying,
+)
+from tlac.two_level.labels import advice_on
+
+
+def _replay_plan(model: TLAC) -> fast.ReplayPlan:
+    """The replayed rows of one minibatch, as the update plans them."""
+    batch = model.config.imitation_batch_size
+    return fast.replay_plan(model.nets, model.advice_buffer, batch, 1, model._replay_generator)
+
+
+def _entropy_coefs(model: TLAC) -> torch.Tensor:
+    """The entropy coefficients of the model's next gradient step."""
+    return entropy_coefs(model._ent_coefs, model.solo, model._handover)
+
 
 # sha256 (first 16 hex digits) of episodes.csv of the paper variant: DoorKey, seed 3, 6000 steps.
 # Only a commit that changes the paper variant on purpose (and says why) may change them.
@@ -214,14 +227,14 @@ def test_scaled_squared_error_hand_checked():
 def test_box_imitation_is_a_gaussian_of_a_tenth_of_the_half_width():
     """Pendulum's box is [-2, 2] (half-width 2): a teacher 0.2 away from the low level's mean
     costs 0.5 * (0.2 / (0.1 * 2))^2 = 0.5 nats."""
-    from tlac.algorithms.tlac_heads import IMITATION_STD
+    from tlac.two_level.networks import IMITATION_STD
 
     env = gym.make("Pendulum-v1")
     model = TLAC(env, teachers=[lambda obs: np.array([0.0], np.float32)], seed=0)
     assert IMITATION_STD == 0.1
     mean = torch.tensor([[0.5], [-1.0]])
     advice = torch.tensor([[[0.7], [-1.0]]])  # 1 teacher x 2 states x 1 dim
-    nll = model._advice_nll(mean, torch.zeros(2, 64), advice)
+    nll = model.nets.advice_nll(mean, torch.zeros(2, 64), advice)
     assert nll.tolist() == [[pytest.approx(0.5), pytest.approx(0.0)]]
 
 
@@ -291,10 +304,10 @@ def test_the_kept_student_is_what_predict_deploys_and_save_keeps(tmp_path):
     model.learn(64, progress_bar=False)
     obs = np.stack([model.observation_space.sample() for _ in range(20)])
     before = model.predict(obs, deterministic=True)[0]
-    model.deployed = model._snapshot_student()
+    model.deployed = model.nets.snapshot_student(model.num_timesteps)
     assert np.array_equal(model.predict(obs, deterministic=True)[0], before)
     model.learn(64, progress_bar=False)  # the live weights and the normaliser move on
-    live = model._act_heads(obs)[1]
+    live = model.nets.act(obs)[1]
     assert not np.allclose(live, before)
     assert np.array_equal(model.predict(obs, deterministic=True)[0], before)
     path = model.save(tmp_path / "m.pt")
@@ -340,7 +353,7 @@ def test_low_level_learns_from_the_agents_rows_whatever_the_kl_rule():
     level's policy gradient; the KL rule only chooses the rows of the stop. Before 2026-11-23
     the loss rows WERE the KL rows, so the graduate variant's ``kl_rows: high`` zeroed them
     (its student learnt by imitation alone)."""
-    from tlac.algorithms.tlac_update import row_weights
+    from tlac.two_level.rows import row_weights
 
     data = {
         "log_prob_low": torch.zeros(4),
@@ -367,7 +380,7 @@ def test_silent_rows_carry_the_agents_policy_gradient():
     """``low_level_data: silent`` (the graduate default): the agent's rows in the states where
     every teacher's advice is uniform; teacher rows stay out. Before any advice, the agent's
     rows (PPO); with no silent state (Box actions, point-mass teachers), none at all."""
-    from tlac.algorithms.tlac_update import row_weights
+    from tlac.two_level.rows import row_weights
 
     data = {
         "log_prob_low": torch.zeros(4),
@@ -591,7 +604,7 @@ def _teacher_likelihood(model_settings: dict, steps: int = 8000) -> float:
     advice = teacher.predict(obs)
     model = TLAC("doorkey", teachers=["optimal"], seed=0, **model_settings)
     model.learn(steps, progress_bar=False)
-    low_logits = model._act_heads(obs)[1]
+    low_logits = model.nets.act(obs)[1]
     log_p = low_logits - np.log(np.exp(low_logits).sum(-1, keepdims=True))
     return float(np.exp(log_p[np.arange(len(obs)), advice]).mean())
 
@@ -647,14 +660,14 @@ def test_capped_high_level_entropy_hand_checked():
     model = TLAC("doorkey", teachers=["optimal", "random", "random"], seed=0)
     high = torch.tensor([[0.0, 0.0, 0.0, 0.0], [50.0, 0.0, 0.0, 0.0]])
     low, latent = torch.zeros(2, 6), torch.zeros(2, 64)
-    capped = model._mean_entropies(high, low, latent, cap_high=0.5)
-    uncapped = model._mean_entropies(high, low, latent)
+    capped = model.nets.mean_entropies(high, low, latent, cap_high=0.5)
+    uncapped = model.nets.mean_entropies(high, low, latent)
     assert abs(float(capped[1]) - 0.25) < 1e-6  # (0.5 + 0) / 2
     assert abs(float(uncapped[1]) - math.log(4) / 2) < 1e-6
     assert abs(float(capped[0]) - math.log(6)) < 1e-6  # the low level is never capped
     # the cap stops the bonus's gradient in states already above it
     logits = high.clone().requires_grad_(True)
-    model._mean_entropies(logits, low, latent, cap_high=0.5)[1].backward()
+    model.nets.mean_entropies(logits, low, latent, cap_high=0.5)[1].backward()
     assert float(logits.grad[0].abs().sum()) == 0.0
 
 
@@ -665,7 +678,7 @@ def test_distribution_labels_hand_checked():
     model = TLAC(env, teachers=[lambda obs: 0], seed=0)
     logits = torch.log(torch.tensor([[0.25, 0.75]]))  # pi_low = (1/4, 3/4)
     dists = torch.tensor([[[0.5, 0.5]], [[0.0, 1.0]]])  # 2 teachers x 1 state x 2 actions
-    nll = model._advice_nll(logits, torch.zeros(1, 64), dists)
+    nll = model.nets.advice_nll(logits, torch.zeros(1, 64), dists)
     assert nll.tolist() == [
         [pytest.approx(-(0.5 * math.log(0.25) + 0.5 * math.log(0.75)))],
         [pytest.approx(-math.log(0.75))],
@@ -746,15 +759,15 @@ def test_the_student_copies_a_noisy_teachers_base_action():
     -log pi_low of its base's action (the label's uniform floor is removed), not the
     cross-entropy from its flat distribution."""
     model = TLAC("doorkey", teachers=["noisy"], seed=0)
-    n_actions = model.net.out_dims[1]
+    n_actions = model.nets.net.out_dims[1]
     noisy = torch.full((n_actions,), 0.8 / n_actions)
     noisy[2] += 0.2
     assert n_actions == 6
     buffer = model.advice_buffer
     buffer.add(torch.zeros(1, buffer.obs.shape[1]), noisy[None, None])
-    labels = model._replay_plan(1).advice[:, :1]  # what the update copies from that state
+    labels = _replay_plan(model).advice[:, :1]  # what the update copies from that state
     low = torch.log(torch.tensor([[0.1, 0.1, 0.3, 0.2, 0.2, 0.1]]))
-    term = float(model._imitation_term(torch.zeros(1, 2), low, torch.zeros(1, 64), labels))
+    term = float(model.nets.imitation_term(torch.zeros(1, 2), low, torch.zeros(1, 64), labels))
     assert term == pytest.approx(-math.log(0.3), abs=1e-5)
 
 
@@ -771,12 +784,12 @@ def test_weaned_imitation_hands_over_with_an_entropy_bonus():
     solo.led_sums[:], solo.led_squares[:], solo.led_counts[:] = -300.0, 30_000.0, 3
     solo.solo_returns.extend([-300.0] * 20)
     assert solo.competence == pytest.approx(0.5)
-    assert model._entropy_coefs().tolist() == pytest.approx([0.025, 0.01])
+    assert _entropy_coefs(model).tolist() == pytest.approx([0.025, 0.01])
     solo.solo_returns.extend([-100.0] * 20)
-    assert model._entropy_coefs().tolist() == pytest.approx([0.05, 0.01])
+    assert _entropy_coefs(model).tolist() == pytest.approx([0.05, 0.01])
     doorkey = TLAC("doorkey", teachers=["optimal"], seed=0)
     doorkey.solo.solo_returns.extend([1.0] * 20)
-    assert doorkey._entropy_coefs().tolist() == pytest.approx([0.0, 0.03])
+    assert _entropy_coefs(doorkey).tolist() == pytest.approx([0.0, 0.03])
     pendulum = TLAC(gym.make("Pendulum-v1"), teachers=[lambda obs: np.zeros(1, np.float32)])
     assert not pendulum._handover
 
@@ -790,9 +803,9 @@ def test_box_imitation_weighs_the_teachers_actions_by_the_high_levels_trust():
     advice = torch.tensor([[[0.7, 0.2, 0.1]], [[-0.9, 0.5, 0.0]]])  # 2 teachers x 1 state x 3
     teachers = [lambda obs: np.zeros(3, np.float32)] * 2
     model = TLAC(gym.make("Hopper-v5"), teachers=teachers, seed=0)
-    got = float(model._imitation_term(high, mean, latent, advice))
+    got = float(model.nets.imitation_term(high, mean, latent, advice))
     trust = torch.softmax(torch.tensor([0.3, -0.2]), 0)
-    errors = losses.scaled_squared_error(mean, advice, model._imitation_scale)[:, 0]
+    errors = losses.scaled_squared_error(mean, advice, model.nets.imitation_scale)[:, 0]
     assert got == pytest.approx(float((trust * errors).sum()))
 
 
@@ -804,15 +817,15 @@ def test_box_advice_is_the_base_action_and_a_random_teacher_is_not_copied():
     base = np.array([0.6, -0.2, 0.4], np.float32)
     good = MixedRandomTeacher(lambda obs: base, 0.8, box, seed=0, name="good")
     model = TLAC(gym.make("Hopper-v5"), teachers=[good, RandomTeacher(box, seed=1)], seed=0)
-    obs = torch.zeros(1, model.obs_dim)
-    model.advice_buffer.add(obs, model._advice_on(obs))
-    plan = model._replay_plan(1)  # every drawn row is the one stored state
+    obs = torch.zeros(1, model.nets.obs_dim)
+    model.advice_buffer.add(obs, advice_on(model.nets, model.teachers, obs))
+    plan = _replay_plan(model)  # every drawn row is the one stored state
     assert plan.advice[0, 0].tolist() == pytest.approx(base.tolist())
     assert plan.information[:, 0].tolist() == pytest.approx([0.8, 0.0])
     mean, latent = torch.tensor([[0.0, 0.0, 0.0]]), torch.zeros(1, 64)
     high = torch.tensor([[0.0, 0.0, -30.0]])  # the two teachers equal; the agent ~0
     labels, information = plan.advice[:, :1], plan.information[:, :1]
-    got = float(model._imitation_term(high, mean, latent, labels, information))
+    got = float(model.nets.imitation_term(high, mean, latent, labels, information))
     # 0.5 * mean_d (base_d / (0.1 * 1))^2 with trust 1 on the good teacher
     assert got == pytest.approx(0.5 * float(np.mean((base / 0.1) ** 2)), rel=1e-5)
 
@@ -887,14 +900,14 @@ def test_a_random_teachers_trust_moves_to_the_teacher_that_knows():
     teacher (a point mass) and a random one (uniform) equally: the random teacher's trust moves
     to the point mass, so the term is the point's whole -log pi."""
     model = TLAC("doorkey", teachers=["optimal", "random"], seed=0)
-    n_actions = model.net.out_dims[1]
+    n_actions = model.nets.net.out_dims[1]
     point = torch.zeros(n_actions)
     point[2] = 1.0
     advice = torch.stack([point[None], torch.full((1, n_actions), 1.0 / n_actions)])
     high = torch.tensor([[0.0, 0.0, -30.0]])  # optimal, random equal; the agent ~0
     low = torch.zeros(1, n_actions)  # pi_low uniform: -log pi(a) = log n for every action
     latent = torch.zeros(1, 64)
-    term = float(model._imitation_term(high, low, latent, advice))
+    term = float(model.nets.imitation_term(high, low, latent, advice))
     assert term == pytest.approx(math.log(n_actions))  # trust 1 on the point mass
 
 
@@ -924,13 +937,13 @@ def test_box_solo_episodes_are_greedy_and_leave_the_policy_gradient():
         seed=0,
         **settings,
     )
-    from tlac.algorithms.tlac_update import row_weights
+    from tlac.two_level.rows import row_weights
 
     assert model.greedy_solo
     ro = model.collect()
     solo = ro.solo.reshape(-1) > 0
     assert solo.any()
-    means = model._act_heads(ro.obs.reshape(len(solo), -1))[1]
+    means = model.nets.act(ro.obs.reshape(len(solo), -1))[1]
     np.testing.assert_allclose(ro.actions.reshape(len(solo), -1)[solo], means[solo], atol=1e-5)
     data = {
         "log_prob_low": torch.zeros(4),
@@ -951,7 +964,7 @@ def test_greedy_solo_rows_leave_the_kl_estimate_and_apply_with_silent_only():
     """The agent's-rows KL estimate (the first update's fallback) leaves greedy solo rows out,
     and greedy solo episodes apply only where the low level learns by imitation (`silent`):
     with `all` or `agent` its policy gradient needs sampled solo rows."""
-    from tlac.algorithms.tlac_update import row_weights
+    from tlac.two_level.rows import row_weights
 
     for data_rule, greedy in (("silent", True), ("all", False), ("agent", False)):
         model = TLAC(
@@ -997,10 +1010,9 @@ def test_the_update_is_the_same_with_replayed_rows_planned_or_made_per_minibatch
     layer: the same training, weights and optimiser statistics, up to rounding on DoorKey
     (where the narrowing happens) and bit for bit on Pendulum (normalised raw inputs, every
     column active)."""
-    from tlac.algorithms import two_level
 
     def trained(max_values: int) -> tuple[TLAC, int]:
-        monkeypatch.setattr(two_level, "MAX_PLANNED_REPLAY_VALUES", max_values)
+        monkeypatch.setattr(fast, "MAX_PLANNED_REPLAY_VALUES", max_values)
         if case == "doorkey":
             model = TLAC("doorkey", teachers=["optimal", "random", "random"], seed=4)
         else:
@@ -1009,18 +1021,18 @@ def test_the_update_is_the_same_with_replayed_rows_planned_or_made_per_minibatch
             teachers = [_push_pendulum, lambda obs: env.action_space.sample()]
             model = TLAC(env, teachers=teachers, seed=4, n_steps=128, batch_size=32)
         narrowed = []
-        original = model._narrowed_columns
+        original = fast.narrowed_columns
         monkeypatch.setattr(
-            model, "_narrowed_columns", lambda *a: narrowed.append(original(*a)) or narrowed[-1]
+            fast, "narrowed_columns", lambda *a: narrowed.append(original(*a)) or narrowed[-1]
         )
         model.learn(96 if case == "doorkey" else 384)
         return model, sum(c is not None for c in narrowed)
 
-    planned, narrowed_updates = trained(two_level.MAX_PLANNED_REPLAY_VALUES)
+    planned, narrowed_updates = trained(fast.MAX_PLANNED_REPLAY_VALUES)
     per_minibatch, none = trained(0)
     assert narrowed_updates == (6 if case == "doorkey" else 0) and none == 0
     tolerance = 1e-6 if case == "doorkey" else 0.0
-    for a, b in zip(planned.params, per_minibatch.params, strict=True):
+    for a, b in zip(planned.nets.params, per_minibatch.nets.params, strict=True):
         torch.testing.assert_close(a, b, rtol=0, atol=tolerance)
         state_a, state_b = planned.optimizer.state[a], per_minibatch.optimizer.state[b]
         assert state_a.keys() == state_b.keys() and float(state_a["step"]) > 0

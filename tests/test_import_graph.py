@@ -16,7 +16,8 @@ LAYERS: list[tuple[str, ...]] = [
     ("tlac.teachers",),  # generic: base, wrappers, the shipped-policy teachers (sac, ppo)
     ("tlac.recording",),
     ("tlac.domains", "tlac.gym_ids"),
-    ("tlac.algorithms", "tlac.selectors"),
+    ("tlac.algorithms", "tlac.selectors"),  # the registry, the parts algorithms share
+    ("tlac.two_level", "tlac.baselines"),  # TL-AC; the baselines it is compared with
     ("tlac.evaluation", "tlac.run", "tlac.teacher_training"),
     ("tlac.experiments",),
     ("tlac.cli", "tlac.__main__"),

@@ -73,15 +73,15 @@ def test_teachers_see_raw_observations_and_the_statistics_are_saved(tmp_path) ->
     )
     model.learn(1280, progress_bar=False)  # (past the audition: 1,000 solo steps)
     assert len(seen) > 10 and min(float(o.min()) for o in seen) > 90.0  # raw: shifted by 100
-    mean = model.normalizer.obs_rms.mean
+    mean = model.nets.normalizer.obs_rms.mean
     assert mean.min() > 90.0  # the statistics are of the raw observations
     obs = np.stack([env.observation_space.sample() for _ in range(5)])
-    x = model.normalizer.obs_numpy(obs.astype(np.float32))
+    x = model.nets.normalizer.obs_numpy(obs.astype(np.float32))
     assert np.abs(x).max() <= 10.0 and np.abs(x.mean()) < np.abs(obs.mean())
     before = model.predict(obs, deterministic=True)[0]
     loaded = TLAC.load(model.save(tmp_path / "m"))
     np.testing.assert_array_equal(loaded.predict(obs, deterministic=True)[0], before)
-    np.testing.assert_array_equal(loaded.normalizer.obs_rms.mean, mean)
+    np.testing.assert_array_equal(loaded.nets.normalizer.obs_rms.mean, mean)
 
 
 def test_normalize_obs_refuses_one_hot_categories() -> None:
@@ -94,14 +94,14 @@ def test_normalize_obs_auto_normalises_raw_observations_only() -> None:
     """``auto`` (presets/default.yaml): on for a Box read raw, off (not refused) where the
     observations are one-hot encoded, so the same preset serves every space."""
     box = TLAC(gym.make("MountainCar-v0"), teachers=[lambda obs: 0], normalize_obs="auto")
-    assert box.normalizer is not None and box.normalizer.normalize_obs
+    assert box.nets.normalizer is not None and box.nets.normalizer.normalize_obs
     grid = TLAC(gym.make("FrozenLake-v1"), teachers=[lambda obs: 0], normalize_obs="auto")
-    assert grid.normalizer is None
+    assert grid.nets.normalizer is None
     with pytest.raises(ConfigError, match="normalize_obs needs raw observations"):
         TLAC(gym.make("FrozenLake-v1"), teachers=[lambda obs: 0], normalize_obs=True)
     # NumPy's true is true, not silently off
     on = TLAC(gym.make("MountainCar-v0"), teachers=[lambda obs: 0], normalize_obs=np.True_)
-    assert on.normalizer is not None and on.normalizer.normalize_obs
+    assert on.nets.normalizer is not None and on.nets.normalizer.normalize_obs
     with pytest.raises(ConfigError, match="normalize_obs needs raw observations"):
         TLAC(gym.make("FrozenLake-v1"), teachers=[lambda obs: 0], normalize_obs=np.True_)
 
@@ -109,7 +109,7 @@ def test_normalize_obs_auto_normalises_raw_observations_only() -> None:
 def test_a2c_normalize_wraps_vecnormalize_and_predicts_from_saved_statistics(tmp_path) -> None:
     from stable_baselines3.common.env_util import make_vec_env
 
-    from tlac.algorithms.sb3_baselines import A2CBaseline
+    from tlac.baselines.sb3_baselines import A2CBaseline
 
     env = make_vec_env(lambda: _Shifted(gym.make("Pendulum-v1")), n_envs=2, seed=0)
     model = A2CBaseline(env, seed=0, normalize=True, n_steps=8)

@@ -121,14 +121,14 @@ def test_an_image_never_meets_an_mlp_silently() -> None:
 def test_policy_kwargs_name_the_extractor_as_sb3() -> None:
     small = dict(n_steps=8, batch_size=8)
     model = TLAC(rgb_view_env(), policy_kwargs=dict(features_extractor_class=NatureCNN), **small)
-    assert model.obs_policy.policy == "CnnPolicy" and model.encoder.out_dim == 512
+    assert model.obs_policy.policy == "CnnPolicy" and model.nets.encoder.out_dim == 512
     model = TLAC(
         rgb_view_env(),
         policy="CnnPolicy",
         policy_kwargs=dict(features_extractor_kwargs=dict(features_dim=32), net_arch=[16]),
         **small,
     )
-    assert model.encoder.out_dim == 32 and model.config.net_arch_low == [16]
+    assert model.nets.encoder.out_dim == 32 and model.config.net_arch_low == [16]
 
 
 # ----------------------------------------------------------------- FrozenLake: Discrete
@@ -160,7 +160,7 @@ def test_frozen_lake_student_reaches_the_goal(tmp_path) -> None:
         return gym.make("FrozenLake-v1", is_slippery=False)
 
     model = TLAC(make(), teachers=[frozen_lake_teacher], seed=0)
-    assert model.encoder.out_dim == 16  # one-hot of Discrete(16)
+    assert model.nets.encoder.out_dim == 16  # one-hot of Discrete(16)
     model.learn(1000)
     alone = episode_return(make(), lambda s: model.predict(s, deterministic=True)[0])
     assert alone == 1.0  # the student alone, from the int observations
@@ -208,7 +208,7 @@ def test_minigrid_dict_learns_saves_and_resumes(tmp_path) -> None:
     model = TLAC(
         symbolic_env(), teachers=[dict_teacher], seed=0, policy_kwargs=flat, preset="doorkey"
     )
-    assert model.obs_dim == 148 and model.encoder.out_dim == 147 + 4  # direction one-hot
+    assert model.nets.obs_dim == 148 and model.nets.encoder.out_dim == 147 + 4  # direction one-hot
     model.learn(2000)
     act = lambda o: model.predict(o, deterministic=True)[0]  # noqa: E731
     assert episode_return(symbolic_env(), act) > 0.9  # the student alone, 5 steps
@@ -257,18 +257,22 @@ def test_rgb_view_with_cnn_policy_learns_predicts_and_saves(tmp_path) -> None:
         n_epochs=2,
     )
     assert model.advice_buffer.obs.dtype == torch.uint8  # images kept as bytes
-    before = [p.detach().clone() for p in model._extractor_params]
+    before = [p.detach().clone() for p in model.nets.extractor_params]
     model.learn(64)
-    assert any(not torch.equal(a, b) for a, b in zip(before, model._extractor_params, strict=True))
+    assert any(
+        not torch.equal(a, b) for a, b in zip(before, model.nets.extractor_params, strict=True)
+    )
     image, _ = rgb_view_env().reset(seed=0)
     action = model.predict(image, deterministic=True)[0]
     assert model.predict(np.stack([image] * 3), deterministic=True)[0].tolist() == [action] * 3
 
-    model.deployed = model._snapshot_student()  # the kept student: its own copy of the CNN
+    model.deployed = model.nets.snapshot_student(
+        model.num_timesteps
+    )  # the kept student: its own copy of the CNN
     images = np.stack([rgb_view_env().reset(seed=s)[0] for s in range(4)])
     kept = model.predict(images, deterministic=True)[0]
     with torch.no_grad():
-        for p in model._extractor_params:
+        for p in model.nets.extractor_params:
             p.add_(1.0)  # the live CNN moves on; the kept student does not
     assert np.array_equal(model.predict(images, deterministic=True)[0], kept)
     path = model.save(tmp_path / "cnn", training_state=True)
@@ -277,7 +281,7 @@ def test_rgb_view_with_cnn_policy_learns_predicts_and_saves(tmp_path) -> None:
     assert np.array_equal(loaded.predict(images, deterministic=True)[0], kept)
     assert all(
         torch.equal(a, b)
-        for a, b in zip(loaded._extractor_params, model._extractor_params, strict=True)
+        for a, b in zip(loaded.nets.extractor_params, model.nets.extractor_params, strict=True)
     )
     resumed = TLAC.load(path, env=rgb_view_env(), teachers=[rgb_teacher], resume=True)
     resumed.learn(16, reset_num_timesteps=False)
@@ -300,7 +304,7 @@ def test_a_dict_with_an_image_key_takes_multi_input_policy() -> None:
     model = TLAC(
         make(), teachers=[teacher], seed=0, policy="MultiInputPolicy", n_steps=64, batch_size=32
     )
-    assert model.encoder.out_dim == 4 + 256  # direction one-hot, SB3's cnn_output_dim
+    assert model.nets.encoder.out_dim == 4 + 256  # direction one-hot, SB3's cnn_output_dim
     model.learn(64)
     obs, _ = make().reset(seed=0)
     assert model.predict(obs, deterministic=True)[0] in range(7)

@@ -1,4 +1,4 @@
-"""The off-policy baselines' shared plumbing (tlac.algorithms.off_policy): their behaviour is
+"""The off-policy baselines' shared plumbing (tlac.baselines.off_policy): their behaviour is
 pinned by golden hashes, and a checkpoint with the training state resumes byte-identically
 (issue 10: learn N, save, load, learn N == learn 2N, for DQN-TLQL and AC-Teach on DoorKey)."""
 
@@ -16,7 +16,7 @@ import torch
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from tlac.algorithms import get_algorithm
-from tlac.algorithms.off_policy import ReplayBuffer
+from tlac.baselines.off_policy import ReplayBuffer
 from tlac.domains import get_domain, make_teachers, make_vec_env
 from tlac.errors import ConfigError, TlacError
 from tlac.recording import EpisodeRecorder
@@ -27,7 +27,7 @@ from tlac.teachers.wrappers import RandomTeacher
 # (commit 8ed99d8): DoorKey, seed 3, the domain preset. Only a commit that changes what these
 # algorithms compute, and says why, may update them. AC-Teach's was updated when its dropout
 # masks moved from torch's Bernoulli draws to the model's NumPy generator (the same masks in
-# distribution, ~5x faster; tlac.algorithms.ac_teach.dropout_mask): different draws.
+# distribution, ~5x faster; tlac.baselines.ac_teach.dropout_mask): different draws.
 # One digest per machine type the project has run on (docs/architecture.md, "Golden hashes
 # across machines"): a change of behaviour gives bytes that match neither.
 GOLDEN = {

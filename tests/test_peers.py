@@ -116,7 +116,7 @@ def test_onehot_peers_read_what_tlacs_networks_read_and_clone_through_it():
     raw_env = peers.make_env(case)
     obs, _ = raw_env.reset(seed=3)
     rows = view(np.asarray(obs)[None])
-    tlac_encoder = TLAC("doorkey", teachers=["random"], seed=0).encoder
+    tlac_encoder = TLAC("doorkey", teachers=["random"], seed=0).nets.encoder
     np.testing.assert_array_equal(rows, tlac_encoder.numpy(np.asarray(obs, np.float32)[None]))
     assert rows.shape == (1, 1029) and rows.sum() == 147
     wrapped = peers.peer_env(peers.make_env(case), view)

@@ -12,9 +12,9 @@ import pytest
 import yaml
 
 import tlac.domains
-from tlac.algorithms.tlac_config import TLACConfig
 from tlac.cli import main
 from tlac.run import RunSpec, train_run
+from tlac.two_level.config import TLACConfig
 
 
 @pytest.mark.parametrize("n_envs", [1, 3])

@@ -61,8 +61,8 @@ def model(n_envs: int = 2, **settings: Any) -> TLAC:
 
 
 def same_weights(a: TLAC, b: TLAC) -> bool:
-    weights = b.net.state_dict()
-    return all(torch.equal(w, weights[k]) for k, w in a.net.state_dict().items())
+    weights = b.nets.net.state_dict()
+    return all(torch.equal(w, weights[k]) for k, w in a.nets.net.state_dict().items())
 
 
 class ReadsLocals(BaseCallback):
@@ -208,7 +208,9 @@ def test_get_and_set_parameters_round_trip(tmp_path, env_id: str) -> None:
     make = lambda seed: TLAC(gym.make(env_id), seed=seed, **SMALL)  # noqa: E731
     obs = np.stack([gym.make(env_id).observation_space.sample() for _ in range(32)])
     trained = make(0).learn(64)
-    trained.deployed = trained._snapshot_student()  # what predict deploys comes along too
+    trained.deployed = trained.nets.snapshot_student(
+        trained.num_timesteps
+    )  # what predict deploys comes along too
     params = trained.get_parameters()
     assert params["deployed"] is not None and params["normalizer"] is not None
     other = make(1)
@@ -513,7 +515,9 @@ def test_model_policy_is_the_deployed_student_as_a_torch_module(env_id: str) -> 
     obs = np.stack([env.observation_space.sample() for _ in range(256)]).astype(np.float32)
     m = TLAC(env, seed=0, **SMALL).learn(128)
     live = greedy(m, obs)
-    m.deployed = m._snapshot_student()  # the kept student: what predict deploys from now on
+    m.deployed = m.nets.snapshot_student(
+        m.num_timesteps
+    )  # the kept student: what predict deploys from now on
     m.learn(128)
     assert m.deployed is not None and np.array_equal(greedy(m, obs), live)
     traced = torch.jit.trace(m.policy, torch.from_numpy(obs[:8]))  # SB3's export recipe's way
@@ -608,9 +612,11 @@ ENCODED = {
 def test_model_policy_reads_encoded_observations_as_predict_does(space: str) -> None:
     torch.set_num_threads(1)
     m = ENCODED[space]().learn(64)
-    m.deployed = m._snapshot_student()  # the kept student (with its own CNN copy)
+    m.deployed = m.nets.snapshot_student(
+        m.num_timesteps
+    )  # the kept student (with its own CNN copy)
     m.learn(32)
-    obs = samples(m.observation_space, 16 if m.obs_layout is not None else 64)
+    obs = samples(m.observation_space, 16 if m.nets.obs_layout is not None else 64)
     actions = greedy(m, obs)
     few = as_tensors(obs if not isinstance(obs, dict) else {k: v[:4] for k, v in obs.items()})
     traced = torch.jit.trace(m.policy, (few,) if isinstance(obs, dict) else few[:4])

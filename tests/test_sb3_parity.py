@@ -12,8 +12,8 @@ from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from tlac import TLAC
-from tlac.algorithms.tlac_config import TLACConfig
 from tlac.errors import ConfigError
+from tlac.two_level.config import TLACConfig
 
 SMALL = dict(n_steps=16, batch_size=16)
 

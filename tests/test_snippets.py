@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from tlac.algorithms import tlac_config
+from tlac.two_level import config as tlac_config
 
 ROOT = Path(__file__).resolve().parents[1]
 BLOCK = re.compile(r"^```python\n(.*?)^```", re.S | re.M)

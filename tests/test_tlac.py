@@ -166,7 +166,7 @@ def test_same_seed_same_learning_curve():
         model.learn(
             320,
             progress_bar=False,
-            callback=lambda m: out.append(float(m.net.weights[0].detach().sum())),
+            callback=lambda m: out.append(float(m.nets.net.weights[0].detach().sum())),
         )
         return out + list(model.env.episode_returns)
 
@@ -318,7 +318,7 @@ def test_smoke_on_the_continuous_domains_with_their_presets(env, teachers):
     preset["n_epochs"] = 2
     model = TLAC(env, teachers=teachers, seed=0, **preset)
     model.learn(preset["n_envs"] * preset["n_steps"] * 2, progress_bar=False)
-    assert model.config.use_sde and model.log_std is not None
+    assert model.config.use_sde and model.nets.log_std is not None
     obs = model.env.reset()
     actions, _ = model.predict(obs)
     assert actions.shape == (preset["n_envs"], *model.action_space.shape)
@@ -347,7 +347,7 @@ def test_a_diverging_run_stops_with_a_training_error_and_takes_no_nan_step():
     model = TLAC("doorkey", teachers=["optimal"], seed=0, learning_rate=1.0e30)
     with pytest.raises(TrainingError, match="non-finite gradient norm"):
         model.learn(2000, progress_bar=False)
-    assert all(torch.isfinite(p).all() for p in model.net.parameters())
+    assert all(torch.isfinite(p).all() for p in model.nets.net.parameters())
 
 
 def test_tlac_learns_on_a_subprocvecenv_with_two_processes():
@@ -370,7 +370,7 @@ def _training_digest(model) -> str:
     import hashlib
 
     h = hashlib.sha256()
-    for p in model.net.parameters():
+    for p in model.nets.net.parameters():
         h.update(p.detach().numpy().tobytes())
     h.update(np.array(list(model.env.episode_returns)).tobytes())
     h.update(str((model.env.episodes_done, model.num_timesteps)).encode())

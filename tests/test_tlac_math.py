@@ -9,12 +9,12 @@ import pytest
 import torch
 from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
 
-from tlac.algorithms import losses
 from tlac.algorithms.nets import StackedMLP, gaussian_log_prob, np_gaussian_log_prob, np_log_softmax
 from tlac.algorithms.rollout import compute_gae
 from tlac.errors import ConfigError
 from tlac.presets import make_schedule
 from tlac.selectors import UCB1Selector, ucb1_scores
+from tlac.two_level import losses
 
 
 def test_gae_lambda_zero_is_the_papers_one_step_advantage():
@@ -165,7 +165,7 @@ def test_numpy_and_torch_log_probs_agree():
 def test_clipped_losses_stay_finite_when_a_teacher_action_was_improbable() -> None:
     """A teacher's action with old log-probability -1e4 under pi_low, now -10: the raw ratio
     exp(9990) is inf; the capped one keeps loss, KL and gradient finite."""
-    from tlac.algorithms.losses import MAX_LOG_RATIO, clipped_policy_losses
+    from tlac.two_level.losses import MAX_LOG_RATIO, clipped_policy_losses
 
     log_prob = torch.tensor([[-10.0, -1.0]], requires_grad=True)
     old = torch.tensor([[-1e4, -1.0]])
@@ -212,157 +212,43 @@ def test_per_level_step_clips_each_network_alone_and_leaves_a_stopped_level_unto
     ro = model.collect()
     data = ro.flat()
     idx = torch.arange(min(16, data["obs"].shape[0]))
-    from tlac.algorithms.tlac_update import UpdateLog, row_weights
+    from tlac.two_level.rows import row_weights
+    from tlac.two_level.steps import gradient_step_per_level, moments
+    from tlac.two_level.summary import UpdateLog
+    from tlac.two_level.update import minibatch_loss
 
     rows = row_weights(model.config, data, model.n_teachers, True, False, False)
 
     def loss():
-        return model._minibatch_loss(data, idx, rows, 0.2, None, UpdateLog())[0]
+        return minibatch_loss(model, data, idx, rows, 0.2, None, UpdateLog())[0]
 
     def member(m):  # every tensor of member m: weights and optimiser statistics
         out = []
-        for p in model.net.parameters():
-            out += [p.data[m].clone()] + [v[m].clone() for v in model._moments(p)]
-        if m == LOW and model.log_std is not None:
-            out += [model.log_std.data.clone()] + [v.clone() for v in model._moments(model.log_std)]
+        for p in model.nets.net.parameters():
+            out += [p.data[m].clone()] + [v[m].clone() for v in moments(model.optimizer, p)]
+        if m == LOW and model.nets.log_std is not None:
+            out += [model.nets.log_std.data.clone()] + [
+                v.clone() for v in moments(model.optimizer, model.nets.log_std)
+            ]
         return out
 
     # each member's gradient, clipped alone, by hand
     model.optimizer.zero_grad()
     loss().backward()
     raw = {
-        m: torch.sqrt(sum(p.grad[m].pow(2).sum() for p in model.net.parameters()))
+        m: torch.sqrt(sum(p.grad[m].pow(2).sum() for p in model.nets.net.parameters()))
         for m in (HIGH, LOW, CRITIC)
     }
-    if model.log_std is not None:
-        raw[LOW] = torch.sqrt(raw[LOW] ** 2 + model.log_std.grad.pow(2).sum())
+    if model.nets.log_std is not None:
+        raw[LOW] = torch.sqrt(raw[LOW] ** 2 + model.nets.log_std.grad.pow(2).sum())
     before = {m: member(m) for m in (HIGH, LOW, CRITIC)}
-    model._gradient_step_per_level(loss(), torch.tensor([False, True]))  # the low level stopped
+    running = torch.tensor([False, True])  # the low level stopped
+    max_norm, step = model.config.max_grad_norm, model.num_timesteps
+    gradient_step_per_level(model.nets, model.optimizer, loss(), running, max_norm, step)
     after = {m: member(m) for m in (HIGH, LOW, CRITIC)}
     assert all(torch.equal(a, b) for a, b in zip(before[LOW], after[LOW], strict=True))
     for m in (HIGH, CRITIC):
         assert not all(torch.equal(a, b) for a, b in zip(before[m], after[m], strict=True))
-        clipped = torch.sqrt(sum(p.grad[m].pow(2).sum() for p in model.net.parameters()))
+        clipped = torch.sqrt(sum(p.grad[m].pow(2).sum() for p in model.nets.net.parameters()))
         expected = min(float(raw[m]), model.config.max_grad_norm)
         assert clipped.item() == pytest.approx(expected, rel=1e-4)
-
-
-def test_foreach_rmsprop_and_clip_are_sb3s_and_torchs_bit_for_bit():
-    """ForeachRMSpropTFLike and optim.clip_grad_norm compute exactly what SB3's RMSpropTFLike
-    and torch's clip_grad_norm_ do (the golden digests rely on it), with SB3's state_dict."""
-    from tlac.algorithms.optim import ForeachRMSpropTFLike, clip_grad_norm
-
-    torch.manual_seed(0)
-    shapes = [(3, 20, 8), (3, 1, 8), (3, 8, 4), (4,)]
-    ref = [torch.nn.Parameter(torch.randn(s)) for s in shapes]
-    new = [torch.nn.Parameter(p.detach().clone()) for p in ref]
-    opts = [RMSpropTFLike(ref, lr=0.01, alpha=0.99, eps=1e-5)]
-    opts.append(ForeachRMSpropTFLike(new, lr=0.01, alpha=0.99, eps=1e-5))
-    for _ in range(5):
-        grads = [torch.randn(s) for s in shapes]
-        for p, g in zip(ref, grads, strict=True):
-            p.grad = g.clone()
-        for p, g in zip(new, grads, strict=True):
-            p.grad = g.clone()
-        norm = torch.nn.utils.clip_grad_norm_(ref, 0.5, foreach=True)
-        assert torch.equal(norm, clip_grad_norm([p.grad for p in new], 0.5))
-        for opt in opts:
-            opt.step()
-        assert all(torch.equal(a, b) for a, b in zip(ref, new, strict=True))
-    sb3, ours = (opt.state_dict()["state"] for opt in opts)
-    assert all(torch.equal(sb3[i]["square_avg"], ours[i]["square_avg"]) for i in sb3)
-    assert [sb3[i]["step"] for i in sb3] == [ours[i]["step"] for i in ours]
-
-
-def test_foreach_adam_is_torchs_adam_bit_for_bit():
-    """ForeachAdam.step_unhooked computes exactly what torch.optim.Adam(foreach=True) does (the
-    user preset's CartPole and Pendulum digests rely on it): same weights and state after steps
-    at a changing learning rate, over gradients of many scales, with a parameter that has no
-    gradient in some steps (its own step count stays behind); options it does not compute itself
-    (amsgrad) take torch's step."""
-    from tlac.algorithms.optim import ForeachAdam
-
-    shapes = [(3, 6, 8), (3, 1, 8), (3, 8, 2), (5,)]
-    for options in ({}, {"amsgrad": True}):
-        torch.manual_seed(0)
-        ref = [torch.nn.Parameter(torch.randn(s)) for s in shapes]
-        new = [torch.nn.Parameter(p.detach().clone()) for p in ref]
-        torch_adam = torch.optim.Adam(ref, lr=3e-4, eps=1e-5, foreach=True, **options)
-        ours = ForeachAdam(new, lr=3e-4, eps=1e-5, foreach=True, **options)
-        for step in range(60):
-            for k, (a, b) in enumerate(zip(ref, new, strict=True)):
-                skipped = k == 3 and step % 7 == 0
-                grad = None if skipped else torch.randn(a.shape) * 10.0 ** (step % 9 - 4)
-                a.grad, b.grad = grad, None if grad is None else grad.clone()
-            for opt in (torch_adam, ours):
-                opt.param_groups[0]["lr"] = 3e-4 * (1 - step / 60)
-            torch_adam.step()
-            ours.step_unhooked()
-            assert all(torch.equal(a, b) for a, b in zip(ref, new, strict=True))
-        theirs, mine = torch_adam.state_dict()["state"], ours.state_dict()["state"]
-        for i in theirs:
-            assert theirs[i].keys() == mine[i].keys()
-            assert all(torch.equal(theirs[i][k], mine[i][k]) for k in theirs[i])
-        assert mine[3]["step"] < mine[0]["step"]
-
-
-def test_the_first_layer_stepped_on_its_active_columns_steps_as_the_whole_layer():
-    """stepping_rows + StackedMLP.first_layer_as, on inputs that are zero outside some columns
-    (a padded first layer, statistics already moved by a step on every column, two updates on
-    other columns): each update's two clipped RMSprop steps on those rows of the first layer
-    give the weights and optimiser statistics that two steps on the whole layer give (up to
-    rounding: the matmul sums over fewer columns); the other rows' weights stay as they were
-    and their square averages decay exactly as a step with zero gradient decays them."""
-    import copy
-
-    from tlac.algorithms.optim import ForeachRMSpropTFLike, clip_grad_norm, stepping_rows
-    from tlac.algorithms.tlac_update import active_columns
-
-    torch.manual_seed(0)
-    whole = StackedMLP(10, [[8, 8], [6, 6], [8, 8]], [3, 5, 1], [True] * 3, [0.01, 0.01, 1.0])
-    assert whole._layers[0][2] is not None  # the first layer carries a width mask
-    narrow = copy.deepcopy(whole)
-
-    def steps(net, opt, inputs, n):
-        for _ in range(n):
-            params = opt.param_groups[0]["params"]
-            for p in params:
-                p.grad = None
-            out, _ = net(inputs)
-            out.sin().sum().backward()
-            clip_grad_norm([p.grad for p in params], 0.5)
-            opt.step()
-
-    opts = [
-        ForeachRMSpropTFLike(net.parameters(), lr=0.01, alpha=0.9, eps=1e-5)
-        for net in (whole, narrow)
-    ]
-    dense = torch.randn(6, 10)
-    for net, opt in zip((whole, narrow), opts, strict=True):  # every column moves once
-        steps(net, opt, dense, 1)
-    first = narrow.weights[0]
-    for active in ([1, 4, 7], [0, 2, 5, 9]):
-        x = torch.zeros(6, 10)
-        x[:, active] = torch.randn(6, len(active))
-        cols = active_columns(x)
-        assert cols.tolist() == active
-        idle = [c for c in range(10) if c not in active]
-        weights_before = first.detach().clone()
-        squares_before = opts[1].state[first]["square_avg"].clone()
-        steps(whole, opts[0], x, 2)
-        with stepping_rows(opts[1], first, cols, dim=1) as part, narrow.first_layer_as(part, cols):
-            steps(narrow, opts[1], x[:, cols], 2)
-        for a, b in zip(whole.parameters(), narrow.parameters(), strict=True):
-            torch.testing.assert_close(a, b, rtol=0, atol=1e-7)
-            state_a, state_b = opts[0].state[a], opts[1].state[b]
-            assert state_a["step"] == state_b["step"]
-            torch.testing.assert_close(
-                state_a["square_avg"], state_b["square_avg"], rtol=0, atol=1e-7
-            )
-        assert torch.equal(first.detach()[:, idle], weights_before[:, idle])
-        decayed = squares_before[:, idle].mul_(0.9).mul_(0.9)
-        assert torch.equal(opts[1].state[first]["square_avg"][:, idle], decayed)
-        assert opts[1].param_groups[0]["params"][0] is first and part not in opts[1].state
-    assert opts[1].state[first]["step"] == 5
-    # a new leaf in every update: the step's scratch buffers stay one per parameter
-    assert len(opts[1]._scratch_buffers[0]) == len(list(narrow.parameters()))

@@ -88,7 +88,7 @@ def test_an_older_checkpoints_pickled_environments_are_never_unpickled(tmp_path:
 
 
 def test_an_sb3_zip_is_opened_only_when_trusted(tmp_path: Path) -> None:
-    from tlac.algorithms.sb3_baselines import PPOBaseline
+    from tlac.baselines.sb3_baselines import PPOBaseline
     from tlac.teachers import from_rl_zoo, from_sb3
 
     marker = tmp_path / "code-ran"

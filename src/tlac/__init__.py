@@ -24,14 +24,14 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:
-    from tlac.algorithms.two_level import TLAC, TLACConfig
     from tlac.domains import Domain, register_domain
     from tlac.evaluation import StudentEvalCallback
+    from tlac.two_level import TLAC, TLACConfig
 
 
 def __getattr__(name: str) -> Any:  # lazy: `import tlac` imports neither torch nor SB3
     if name in ("TLAC", "TLACConfig"):
-        from tlac.algorithms import two_level
+        from tlac import two_level
 
         return getattr(two_level, name)
     if name in ("Domain", "register_domain"):

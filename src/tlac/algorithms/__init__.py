@@ -3,7 +3,9 @@
 Every class follows the contract in ``docs/architecture.md``:
 ``Algo(env, teachers, seed, recorder, **hyperparameters)`` with ``learn``, ``predict``,
 ``save`` and ``load`` as :class:`~tlac.algorithms.protocol.Algorithm` states them (a
-``typing.Protocol``, re-exported here). Modules are imported lazily.
+``typing.Protocol``, re-exported here). Modules are imported lazily: TL-AC from
+:mod:`tlac.two_level`, the baselines from :mod:`tlac.baselines`; this package holds the parts
+they share.
 """
 
 from __future__ import annotations
@@ -17,11 +19,11 @@ from tlac.errors import UnknownNameError
 __all__ = ["ALGORITHMS", "NO_ADVICE", "Algorithm", "algorithm_names", "get_algorithm"]
 
 ALGORITHMS: dict[str, str] = {
-    "tlac": "tlac.algorithms.two_level:TLAC",
-    "ppo": "tlac.algorithms.sb3_baselines:PPOBaseline",
-    "a2c": "tlac.algorithms.sb3_baselines:A2CBaseline",
-    "dqn-tlql": "tlac.algorithms.dqn_tlql:DQNTLQL",
-    "ac-teach": "tlac.algorithms.ac_teach:ACTeach",
+    "tlac": "tlac.two_level:TLAC",
+    "ppo": "tlac.baselines.sb3_baselines:PPOBaseline",
+    "a2c": "tlac.baselines.sb3_baselines:A2CBaseline",
+    "dqn-tlql": "tlac.baselines.dqn_tlql:DQNTLQL",
+    "ac-teach": "tlac.baselines.ac_teach:ACTeach",
 }
 
 # algorithms that take no teachers (the no-advice baselines)

@@ -20,11 +20,12 @@ pass them: a plain function, an SB3 ``BaseCallback`` (``EvalCallback``, ``Checkp
   own (a callback that itself calls ``predict(deterministic=False)`` draws from the model's
   acting generator, as it does in SB3).
 
-For these, the algorithms offer what SB3 callbacks use of a model (:class:`SB3Compat`):
-``get_env()``, ``get_vec_normalize_env()``, ``logger`` (an SB3 ``Logger``), ``num_timesteps``,
-``predict(observation, state, episode_start, deterministic)``, ``save(path)`` and (TL-AC)
-``ep_info_buffer`` / ``ep_success_buffer``: the last 100 finished training episodes'
-``{"r", "l", "t"}`` and ``is_success``, as SB3 keeps them.
+For these, the algorithms offer what SB3 callbacks use of a model: ``get_env()``,
+``get_vec_normalize_env()``, ``logger`` (an SB3 ``Logger``), ``num_timesteps``,
+``predict(observation, state, episode_start, deterministic)``, ``save(path)`` and (TL-AC, which
+keeps them in a composed :class:`SB3Logs`) ``ep_info_buffer`` / ``ep_success_buffer``: the last
+100 finished training episodes' ``{"r", "l", "t"}`` and ``is_success``, as SB3 keeps them. The
+off-policy baselines have theirs from :class:`SB3Compat`.
 """
 
 from __future__ import annotations
@@ -44,39 +45,53 @@ EPISODE_WINDOW = 100
 """The finished episodes that ``ep_info_buffer`` keeps (SB3's ``stats_window_size``)."""
 
 
-class SB3Compat:
-    """What SB3 callbacks ask of a model, for tlac's own algorithms."""
+def training_env(env: Any) -> Any:
+    """The training environments as SB3's ``get_env()`` gives them: the VecEnv the user gave
+    (or tlac made), without the episode recorder tlac wraps around it, so that SB3's callbacks
+    find the same wrappers as in their evaluation environments (``EvalCallback`` compares the
+    types and syncs a ``VecNormalize`` layer by layer)."""
+    return env.venv if isinstance(env, EpisodeRecorder) else env
 
-    env: Any
-    _sb3_logger: Logger | None = None
-    verbose = 0
-    tensorboard_log: str | None = None
-    _tb_configured: bool = False
-    tb_log_name: str = "TLAC"
-    ep_info_buffer: deque[dict[str, Any]] | None = None
-    ep_success_buffer: deque[Any] | None = None
 
-    def get_env(self) -> Any:
-        """The training environments (SB3's name): the VecEnv the user gave (or tlac made),
-        without the episode recorder tlac wraps around it, so that SB3's callbacks find the
-        same wrappers as in their evaluation environments (``EvalCallback`` compares the types
-        and syncs a ``VecNormalize`` layer by layer)."""
-        env = self.env
-        return env.venv if isinstance(env, EpisodeRecorder) else env
+def vec_normalize_of(env: Any) -> VecNormalize | None:
+    """The ``VecNormalize`` in the training environments' wrappers, if the user gave one
+    (SB3's ``get_vec_normalize_env()``): ``EvalCallback`` syncs its statistics into the
+    evaluation environments and ``CheckpointCallback(save_vecnormalize=True)`` saves it."""
+    return unwrap_vec_normalize(env) if env is not None else None
 
-    def _new_info_buffers(self, reset: bool = True) -> None:
+
+class SB3Logs:
+    """What SB3 callbacks and SB3's logging read of a model that trains in SB3's way (TL-AC
+    holds one, ``model.sb3``): the SB3 ``Logger``, the TensorBoard run it writes to, and the
+    last 100 finished training episodes (``ep_info_buffer``, ``ep_success_buffer``)."""
+
+    def __init__(self) -> None:
+        self.logger: Logger | None = None  # made on first use (:meth:`get_logger`)
+        self.tb_log_name = "TLAC"
+        self.tb_configured = False
+        self.ep_info_buffer: deque[dict[str, Any]] | None = None
+        self.ep_success_buffer: deque[Any] | None = None
+
+    def get_logger(self) -> Logger:
+        """An SB3 ``Logger`` for callbacks (``EvalCallback`` records its results there); it
+        writes nothing unless given output formats (``set_logger``)."""
+        if self.logger is None:
+            self.logger = Logger(folder=None, output_formats=[])
+        return self.logger
+
+    def new_info_buffers(self, reset: bool = True) -> None:
         """SB3's ``ep_info_buffer`` and ``ep_success_buffer`` (the last 100 episodes), new at a
         ``learn`` call that resets the step count, or when there are none yet."""
         if reset or self.ep_info_buffer is None:
             self.ep_info_buffer = deque(maxlen=EPISODE_WINDOW)
             self.ep_success_buffer = deque(maxlen=EPISODE_WINDOW)
 
-    def _record_episode_info(self, info: dict[str, Any]) -> None:
+    def record_episode_info(self, info: dict[str, Any]) -> None:
         """A finished episode's ``info``, kept as SB3's ``_update_info_buffer`` keeps it: its
         ``"episode"`` record (``{"r", "l", "t"}``: tlac's episode recorder, or a ``Monitor``, puts
         it there) and its ``"is_success"``."""
         if self.ep_info_buffer is None or self.ep_success_buffer is None:
-            self._new_info_buffers()
+            self.new_info_buffers()
             assert self.ep_info_buffer is not None and self.ep_success_buffer is not None
         episode, success = info.get("episode"), info.get("is_success")
         if episode is not None:
@@ -84,11 +99,60 @@ class SB3Compat:
         if success is not None:
             self.ep_success_buffer.append(success)
 
+    def learn_arguments(
+        self, log_interval: Any, tb_log_name: Any, reset_num_timesteps: Any
+    ) -> int | None:
+        """Check and apply SB3's ``learn`` arguments ``tb_log_name`` and
+        ``reset_num_timesteps`` (its flag only; the caller resets); returns ``log_interval``
+        (steps here), checked."""
+        if log_interval is not None and (
+            isinstance(log_interval, bool) or not isinstance(log_interval, int) or log_interval < 1
+        ):
+            raise ConfigError(
+                f"log_interval: expected a positive number of steps, got {log_interval!r}"
+            )
+        if not isinstance(tb_log_name, str) or not tb_log_name or "/" in tb_log_name:
+            raise ConfigError(f"tb_log_name: expected a folder name, got {tb_log_name!r}")
+        if tb_log_name != self.tb_log_name:
+            self.tb_log_name, self.tb_configured = tb_log_name, False
+        if not isinstance(reset_num_timesteps, bool):
+            raise ConfigError(
+                f"reset_num_timesteps: expected True or False, got {reset_num_timesteps!r}"
+            )
+        return log_interval
+
+    def output(self, verbose: int, tensorboard_log: str | None) -> bool:
+        """Whether ``learn`` writes its scalars to the SB3 logger (``verbose`` or
+        ``tensorboard_log``); configures that logger on first use, a TensorBoard run in the
+        next free ``<tb_log_name>_<n>`` folder (``TLAC_<n>`` by default)."""
+        if tensorboard_log is not None and not self.tb_configured:
+            require_extra("tensorboard", "tensorboard_log", "tensorboard")
+            folder = Path(tensorboard_log)
+            name = self.tb_log_name
+            n = 1 + sum(1 for p in folder.glob(f"{name}_*")) if folder.exists() else 1
+            formats = ["tensorboard"] + (["stdout"] if verbose else [])
+            self.logger = configure(str(folder / f"{name}_{n}"), formats)
+            self.tb_configured = True
+        elif verbose and self.logger is None:
+            self.logger = configure(None, ["stdout"])
+        return bool(verbose or tensorboard_log is not None)
+
+
+class SB3Compat:
+    """What SB3 callbacks ask of a model, for the off-policy baselines (DQN-TLQL, AC-Teach):
+    ``get_env()``, ``get_vec_normalize_env()`` and ``logger``."""
+
+    env: Any
+    _sb3_logger: Logger | None = None
+
+    def get_env(self) -> Any:
+        """The training environments (SB3's name): :func:`training_env`."""
+        return training_env(self.env)
+
     def get_vec_normalize_env(self) -> VecNormalize | None:
-        """The ``VecNormalize`` in the training environments' wrappers, if the user gave one
-        (SB3's name): ``EvalCallback`` syncs its statistics into the evaluation environments
-        and ``CheckpointCallback(save_vecnormalize=True)`` saves it."""
-        return unwrap_vec_normalize(self.env) if self.env is not None else None
+        """The user's ``VecNormalize`` around the training environments, if any (SB3's name):
+        :func:`vec_normalize_of`."""
+        return vec_normalize_of(self.env)
 
     @property
     def logger(self) -> Logger:
@@ -103,46 +167,6 @@ class SB3Compat:
         """Use ``logger`` (for example ``stable_baselines3.common.logger.configure(...)``) for
         what SB3 callbacks record."""
         self._sb3_logger = logger
-
-    def _sb3_learn_arguments(
-        self, log_interval: Any, tb_log_name: Any, reset_num_timesteps: Any
-    ) -> None:
-        """Check and apply SB3's ``learn`` arguments ``log_interval`` (steps here),
-        ``tb_log_name`` and ``reset_num_timesteps`` (its flag only; the caller resets)."""
-        if log_interval is not None:
-            if (
-                isinstance(log_interval, bool)
-                or not isinstance(log_interval, int)
-                or log_interval < 1
-            ):
-                raise ConfigError(
-                    f"log_interval: expected a positive number of steps, got {log_interval!r}"
-                )
-            self.log_interval = log_interval
-        if not isinstance(tb_log_name, str) or not tb_log_name or "/" in tb_log_name:
-            raise ConfigError(f"tb_log_name: expected a folder name, got {tb_log_name!r}")
-        if tb_log_name != self.tb_log_name:
-            self.tb_log_name, self._tb_configured = tb_log_name, False
-        if not isinstance(reset_num_timesteps, bool):
-            raise ConfigError(
-                f"reset_num_timesteps: expected True or False, got {reset_num_timesteps!r}"
-            )
-
-    def _sb3_output(self) -> bool:
-        """Whether ``learn`` writes its scalars to the SB3 logger (``verbose`` or
-        ``tensorboard_log``); configures that logger on first use, a TensorBoard run in the
-        next free ``<tb_log_name>_<n>`` folder (``TLAC_<n>`` by default)."""
-        if self.tensorboard_log is not None and not self._tb_configured:
-            require_extra("tensorboard", "tensorboard_log", "tensorboard")
-            folder = Path(self.tensorboard_log)
-            name = self.tb_log_name
-            n = 1 + sum(1 for p in folder.glob(f"{name}_*")) if folder.exists() else 1
-            formats = ["tensorboard"] + (["stdout"] if self.verbose else [])
-            self.set_logger(configure(str(folder / f"{name}_{n}"), formats))
-            self._tb_configured = True
-        elif self.verbose and self._sb3_logger is None:
-            self.set_logger(configure(None, ["stdout"]))
-        return bool(self.verbose or self.tensorboard_log is not None)
 
 
 def check_device(device: Any) -> None:

@@ -104,7 +104,7 @@ class StackedMLP(nn.Module):
     def first_layer_as(self, weight: torch.Tensor, cols: torch.Tensor) -> Iterator[None]:
         """While open, :meth:`forward` takes rows with the input columns ``cols`` only and
         uses ``weight``, those rows of the first layer's weight (``(M, len(cols), out)``), as
-        the first layer (tlac.algorithms.optim.stepping_rows). Acting (:meth:`forward_numpy`)
+        the first layer (tlac.two_level.fast.stepping_rows). Acting (:meth:`forward_numpy`)
         keeps the whole layer."""
         w, b, mask = self._layers[0]
         self._layers[0] = (weight, b, None if mask is None else mask.index_select(1, cols))

@@ -51,7 +51,7 @@ name, and the policy each one amounts to."""
 
 POLICY_KWARGS = ("features_extractor_class", "features_extractor_kwargs", "normalize_images")
 """The keys of SB3's ``policy_kwargs`` that :class:`ObsPolicy` takes (TL-AC's settings take
-the others: tlac.algorithms.tlac_config.settings_from_policy_kwargs)."""
+the others: tlac.two_level.config.settings_from_policy_kwargs)."""
 
 MIN_IMAGE_SIDE = 36
 """The smallest height and width NatureCNN's convolutions (8 stride 4, 4 stride 2, 3 stride 1)

@@ -101,10 +101,10 @@ def obs_reader(model: Any) -> ObsReader:
     """The :class:`ObsReader` of ``model``'s deployed student: its observation layout (Dict,
     Discrete, images) or a Box read whole, one-hot under ``obs_encoding``; the CNNs are the
     kept student's own where it has them."""
-    layout, encoder = model.obs_layout, model.encoder
+    layout, encoder = model.nets.obs_layout, model.nets.encoder
     if layout is None:
         return ObsReader(
-            [(None, 0, model.obs_dim)], [None if encoder is None else OneHotPart(encoder)]
+            [(None, 0, model.nets.obs_dim)], [None if encoder is None else OneHotPart(encoder)]
         )
     snap = model.deployed
     if snap is not None and snap.encoder is not None:
@@ -247,22 +247,22 @@ def student_policy(model: Any) -> StudentPolicy:
     """``model.policy``: a :class:`StudentPolicy` of what ``model.predict`` deploys now (the
     kept student, else the live low level), with its observation normalisation and encoding."""
     vec_normalize = model.saved_vec_normalize if model.get_vec_normalize_env() is None else None
-    if vec_normalize is not None and model.obs_layout is not None:
+    if vec_normalize is not None and model.nets.obs_layout is not None:
         raise NoStudentPolicy(
             f"model.policy applies a saved VecNormalize to Box observations only; this model "
             f"reads {model.observation_space} through its layout: use model.predict"
         )
     snap = model.deployed
-    layers = model.net.member_numpy(LOW) if snap is None else snap.layers
-    net_in = model.obs_dim if model.encoder is None else model.encoder.out_dim
-    widths = [net_in, *model.config.net_arch_low, model.net.out_dims[LOW]]
+    layers = model.nets.net.member_numpy(LOW) if snap is None else snap.layers
+    net_in = model.nets.obs_dim if model.nets.encoder is None else model.nets.encoder.out_dim
+    widths = [net_in, *model.config.net_arch_low, model.nets.net.out_dims[LOW]]
     trimmed = [
         (w[: widths[i], : widths[i + 1]], np.asarray(b).reshape(-1)[: widths[i + 1]])
         for i, (w, b) in enumerate(layers)
     ]
     if snap is None:
-        normalizer = model.normalizer
-        log_std = None if model.log_std is None else model.log_std.detach().numpy()
+        normalizer = model.nets.normalizer
+        log_std = None if model.nets.log_std is None else model.nets.log_std.detach().numpy()
     else:
         normalizer, log_std = snap.normalizer, snap.log_std
     policy = StudentPolicy(
@@ -274,6 +274,6 @@ def student_policy(model: Any) -> StudentPolicy:
         log_std,
         bool(model.config.use_sde),
         obs_reader(model),
-        model.obs_layout,
+        model.nets.obs_layout,
     )
     return policy.eval()

@@ -254,7 +254,7 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     model = load_run_model(run, config["algo"], trust_pickle=args.trust_pickle)
     trained_on = getattr(model, "env_name", None)  # recorded by TL-AC's model files
     if isinstance(trained_on, str) and trained_on != domain.name:
-        from tlac.algorithms.tlac_io import other_env_warning
+        from tlac.two_level.inputs import other_env_warning
 
         print(f"tlac: warning: {other_env_warning(trained_on, domain.name)}", file=sys.stderr)
     seed = args.seed

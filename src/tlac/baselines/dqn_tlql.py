@@ -51,7 +51,7 @@ from tlac.algorithms.common import (
     stop_if_not_finite,
     td_targets,
 )
-from tlac.algorithms.off_policy import ReplayBuffer, learn_loop, load_model, save_checkpoint
+from tlac.baselines.off_policy import ReplayBuffer, learn_loop, load_model, save_checkpoint
 from tlac.errors import ConfigError
 from tlac.recording import Recorder
 from tlac.validation import Checks
@@ -310,7 +310,7 @@ class DQNTLQL(SB3Compat):
         learn_loop(self, total_timesteps, callback, progress_bar, "DQN-TLQL")
         return self
 
-    # ---- the learn loop's steps (tlac.algorithms.off_policy.learn_loop)
+    # ---- the learn loop's steps (tlac.baselines.off_policy.learn_loop)
     def collect(self, exploration_rate: float) -> None:
         """One epsilon-greedy step in every environment, stored in the replay buffer; the
         target networks' Polyak update when its interval has passed."""

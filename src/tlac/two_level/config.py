@@ -24,7 +24,7 @@ from tlac.validation import Checks, from_mapping
 Schedule = float | dict | Callable[[float], float]
 """A number, ``{linear: [start, end]}`` or (from Python) SB3's ``Schedule``, a function of the
 progress remaining (1 -> 0); a model file keeps a function's value at save time
-(:meth:`tlac.algorithms.tlac_io.TLACPersistence.save`)."""
+(:meth:`tlac.two_level.model.TLAC.save`)."""
 
 SCHEDULES = ("learning_rate", "clip_range", "target_kl", "distill_coef")
 """The settings that take a schedule."""
@@ -249,10 +249,10 @@ class TLACConfig:
     solo_budget: float | None = None
     """Graduation by solo episodes: an episode is played by the student alone with probability
     min(1, solo_budget / (1 - competence)), competence measured from recent solo and assisted
-    returns (tlac.algorithms.graduation), so solo play costs the training return about
+    returns (tlac.two_level.graduation), so solo play costs the training return about
     solo_budget of the teachers' margin. ``predict`` (the student a user deploys) uses the last
     snapshot of the low level taken when its window of 20 solo returns was not clearly below
-    the best such window so far (tlac.algorithms.graduation.worth_deploying), rather than
+    the best such window so far (tlac.two_level.graduation.worth_deploying), rather than
     whatever the last update left. None: the variant's (graduate 0.05, paper 0: no solo
     episodes, and ``predict`` uses the live weights)."""
     normalize_obs: bool | str = False
@@ -279,7 +279,7 @@ class TLACConfig:
     teacher_episodes: float = 0.0
     """With solo episodes: the share of the other episodes that one teacher plays alone from
     start to end ("teacher-led"), the teacher picked by UCB1 over the returns of its earlier
-    led episodes (tlac.algorithms.graduation.SoloEpisodes). They show what each teacher reaches
+    led episodes (tlac.two_level.graduation.SoloEpisodes). They show what each teacher reaches
     on its own (weaned imitation measures the student against the best of them), and their
     rows train the high level like its own choices, so it learns whom to follow where per-step
     mixing never completes a task (MountainCar). The first episodes audition: the student

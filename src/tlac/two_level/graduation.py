@@ -26,7 +26,7 @@ the latest: if assisted episodes get worse, that must not read as a competent st
 from __future__ import annotations
 
 from collections import deque
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
@@ -34,6 +34,9 @@ import torch
 from tlac.algorithms.nets import tanh_mlp_numpy
 from tlac.algorithms.normalization import Normalizer
 from tlac.selectors import ucb1_scores
+
+if TYPE_CHECKING:
+    from tlac.two_level.config import TLACConfig
 
 
 def solo_probability(competence: float, budget: float) -> float:
@@ -102,6 +105,23 @@ def handover_entropy_coef(competence: float) -> float:
     (0.0, 0.025, 0.05)
     """
     return HANDOVER_ENTROPY * competence
+
+
+def entropy_coefs(
+    settings: torch.Tensor, solo: SoloEpisodes | None, handover: bool
+) -> torch.Tensor:
+    """``[low, high]`` entropy coefficients of a gradient step: the settings' (``settings``),
+    plus the hand-over bonus on the low level under weaned imitation (``handover``: discrete
+    actions, with solo episodes ``solo``).
+
+    >>> entropy_coefs(torch.tensor([0.0, 0.01]), None, False).tolist()
+    [0.0, 0.009999999776482582]
+    """
+    if not handover:
+        return settings
+    assert solo is not None
+    bonus = handover_entropy_coef(solo.weaning)
+    return settings + torch.tensor([bonus, 0.0])
 
 
 def worth_deploying(
@@ -429,7 +449,8 @@ class AdviceBuffer:
         self.advice = torch.zeros(capacity, *advice_shape, dtype=advice_dtype)
         # track_labels (advice limited by a budget, availability or an asking rule): which
         # teachers were asked in each row; the others' advice there is a placeholder that the
-        # imitation term weighs 0 (TLAC._replay_plan). None: every teacher labels every row
+        # imitation term weighs 0 (tlac.two_level.fast.replay_plan). None: every teacher
+        # labels every row
         self.labelled = (
             torch.zeros(capacity, advice_shape[0], dtype=torch.bool) if track_labels else None
         )
@@ -461,3 +482,35 @@ class AdviceBuffer:
         (n_teachers, n, ...))``."""
         idx = torch.randint(self.size, (n,), generator=generator)
         return self.obs[idx], self.advice[idx].transpose(0, 1)
+
+
+def make_solo(cfg: TLACConfig, n_envs: int, seed: int, n_teachers: int) -> SoloEpisodes | None:
+    """The graduate variant's solo (and teacher-led) episodes under the settings ``cfg``; None
+    without a solo budget or without teachers."""
+    if not (cfg.solo_budget and n_teachers):
+        return None
+    # ask learned on a budget: the high level's choices are the only asks. A teacher-led
+    # episode asks in every state whatever the price (on CartPole, 500 answers an episode:
+    # the audition's first two would spend a budget of 1e3), so there is none
+    teacher_share = cfg.teacher_episodes
+    if cfg.advice.ask == "learned" and cfg.advice.advice_budget is not None:
+        teacher_share = 0.0
+    return SoloEpisodes(
+        n_envs, cfg.solo_budget, seed, n_teachers=n_teachers, teacher_share=teacher_share
+    )
+
+
+def plays_solo_greedily(cfg: TLACConfig, discrete: bool) -> bool:
+    """Whether the student plays its solo episodes greedily: with Box actions, where the low
+    level learns by imitation (low_level_data "silent"). Imitation fits its Gaussian's mean and
+    leaves its noise untrained (a fixed-variance likelihood), so a sampled solo episode
+    measures that noise rather than the student a user deploys (hopper, seed 0: the live
+    student 593 greedy against 100 sampled; the kept student, chosen on sampled solo returns,
+    stayed at 190 while the live one reached 2170)."""
+    return not discrete and bool(cfg.solo_budget) and cfg.low_level_data == "silent"
+
+
+def hands_over(cfg: TLACConfig, discrete: bool, solo: SoloEpisodes | None) -> bool:
+    """Whether weaned imitation hands a discrete student over to its own policy gradient
+    with an entropy bonus that grows with its competence (:func:`handover_entropy_coef`)."""
+    return discrete and cfg.wean_imitation and solo is not None

@@ -55,7 +55,7 @@ from tlac.algorithms.common import (
     real_next_obs,
     stop_if_not_finite,
 )
-from tlac.algorithms.off_policy import ReplayBuffer, learn_loop, load_model, save_checkpoint
+from tlac.baselines.off_policy import ReplayBuffer, learn_loop, load_model, save_checkpoint
 from tlac.errors import ConfigError
 from tlac.recording import Recorder
 from tlac.teachers.base import ask_teacher
@@ -474,7 +474,7 @@ class ACTeach(SB3Compat):
         self._cycle_start: int | None = None
         self._next_log: int | None = None
         self._losses: dict[str, float] = {}
-        # the exploration schedule's clock (see tlac.algorithms.off_policy.schedule_progress)
+        # the exploration schedule's clock (see tlac.baselines.off_policy.schedule_progress)
         self._schedule: tuple[int, int] | None = None
         self._resumed_schedule: tuple[int, int] | None = None
 
@@ -706,7 +706,7 @@ class ACTeach(SB3Compat):
         learn_loop(self, total_timesteps, callback, progress_bar, "AC-Teach")
         return self
 
-    # ---- the learn loop's steps (tlac.algorithms.off_policy.learn_loop)
+    # ---- the learn loop's steps (tlac.baselines.off_policy.learn_loop)
     def collect(self, exploration_rate: float) -> None:
         """One step of the behaviour policy in every environment, stored in the replay buffer
         with the teachers' advice at the next state."""

@@ -1,0 +1,239 @@
+"""TL-AC's collection of a rollout (paper, Algorithm 1, lines 11-23): in every state the high
+level picks a teacher or the agent (line 14), the low level samples an action (line 16), the
+chosen teacher's action replaces it (line 18), the environments step (line 19) and the
+transition is stored with both levels' log-probabilities (line 20); then the advantages (GAE).
+Limited advice (tlac.algorithms.advice) and the graduate variant's solo and teacher-led
+episodes (tlac.two_level.graduation) decide who may act."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from stable_baselines3.common.vec_env import unwrap_vec_normalize
+
+from tlac.algorithms.advice import (
+    AdviceLedger,
+    acting_teachers,
+    ask_gate,
+    corrected_rows,
+    mask_logits,
+    priced_logits,
+)
+from tlac.algorithms.common import original_obs, original_rewards, query_teachers
+from tlac.algorithms.nets import np_log_softmax
+from tlac.algorithms.rollout import Rollout, compute_gae
+
+if TYPE_CHECKING:
+    from tlac.algorithms.callbacks import LearnCallbacks
+
+
+def collect(model: Any, callbacks: LearnCallbacks | None = None) -> Rollout | None:
+    """Collect ``n_steps`` transitions per environment (Algorithm 1, lines 11-23).
+    ``callbacks``: ``learn``'s, whose SB3 callbacks see every step as in SB3's
+    ``collect_rollouts``; None is returned when one of them stopped the collection."""
+    cfg = model.config
+    T, E = cfg.n_steps, model.n_envs
+    ro = Rollout.empty(T, E, model.nets.obs_dim, model.action_space.shape, model.nets.discrete)
+    if model._last_obs is None:
+        model._last_obs = model.env.reset()
+        model._episode_starts = np.ones(E, dtype=bool)
+        model._episode_returns = np.zeros(E)
+    sb3 = callbacks if callbacks is not None and callbacks.sb3 else None
+    if sb3 is not None:
+        sb3.rollout_start()
+    if cfg.use_sde:
+        model.nets.resample_sde_noise()
+    vec_normalize = unwrap_vec_normalize(model.env)  # the user's: teachers get raw observations
+    limits = model.advice if model.limited_advice else None
+    rule = cfg.advice.ask
+    if limits is not None:
+        ro.askable = np.zeros((T, E, model.n_teachers), dtype=bool)
+        ro.high_mask = np.zeros((T, E, model.n_teachers), dtype=bool)
+        if rule == "learned":  # the price of each answer, charged in the high level's logits
+            ro.high_shift = np.zeros((T, E, model.n_teachers), dtype=np.float32)
+            steps_left = advice_steps_left(model)
+            limits.start_pacing(steps_left)
+            pacing = (limits.spent, limits.remaining, steps_left)
+        if rule == "mistake":
+            ro.corrected = np.zeros((T, E), dtype=bool)
+    # ask learned and mistake: labels come only from the teacher that acted (learned: the
+    # high level's ask; mistake: where it disagreed with the student), none from the others
+    labels_from_gate = rule not in ("learned", "mistake")
+    for t in range(T):
+        if cfg.use_sde and cfg.sde_sample_freq > 0 and t > 0 and t % cfg.sde_sample_freq == 0:
+            model.nets.resample_sde_noise()
+        obs = model.nets.flat_rows(model._last_obs)
+        if (
+            model.nets.normalizer is not None
+        ):  # statistics of what the networks see, as VecNormalize
+            model.nets.normalizer.update_obs(obs)
+        net_obs = model.nets.normalized(obs)
+        if model.nets.normalizer is not None:
+            ro.net_obs[t] = net_obs
+        high_logits, low_out, values, latent = model.nets.act_on_input(net_obs)
+        if limits is None:
+            choices = model.selector.select(high_logits, model._episode_starts)  # line 14
+        else:  # only teachers present, affordable and asked can be chosen
+            limits.draw_presence(model._episode_starts)
+            asks = ask_gate(rule, low_out, cfg.advice.ask_threshold)
+            can = limits.can_answer(asks)
+            if ro.high_shift is not None:  # the behaviour policy pays the price of asking
+                ro.high_shift[t] = limits.shift()
+                high_logits = priced_logits(high_logits, ro.high_shift[t])
+            choices = model.selector.select(mask_logits(high_logits, can), model._episode_starts)
+        if model.solo is not None:  # graduate variant: some episodes are the student's alone
+            solo = model.solo.start(
+                model._episode_starts, None if limits is None else limits.can_lead()
+            )
+            if limits is not None:
+                limit_leaders(model, limits)
+            choices = np.where(solo, model.n_teachers, choices)
+            # ... or one teacher's alone (teacher_episodes): their rows train the high level
+            # as its own choices, with their log-probabilities under it
+            choices = np.where(model.solo.leader >= 0, model.solo.leader, choices)
+            ro.solo[t] = solo
+        if limits is not None:  # the acting teachers' answers, paid for
+            choices, high_mask = charge_acting(model, limits, choices, can)
+            ro.askable[t] = limits.present & (asks & labels_from_gate)[:, None]
+            ro.high_mask[t] = high_mask
+            high_logits = mask_logits(high_logits, high_mask)
+        actions = model.nets.sample_low(low_out, latent)  # line 16 (kept where the agent acts)
+        if model.greedy_solo:
+            actions = np.where(ro.solo[t][:, None] > 0, low_out, actions)
+        teacher_obs = model._last_obs if vec_normalize is None else original_obs(vec_normalize)
+        own = actions.copy() if ro.corrected is not None else None  # the student's intent
+        # line 18: the chosen teacher's action in place of the agent's (asked where chosen)
+        query_teachers(model.teachers, choices, teacher_obs, model.action_space, actions)
+        if own is not None:  # mistake correcting: the teacher checked the student's action
+            ro.corrected[t] = corrected_rows(choices, own, actions, model.n_teachers)
+
+        clipped_actions = model.nets.to_env_actions(actions)  # (SB3's name, for callbacks)
+        new_obs, rewards, dones, infos = model.env.step(clipped_actions)  # line 19
+        model.num_timesteps += E
+        # SB3's callbacks see the step (the environments' rewards) before tlac's bookkeeping
+        stopped = sb3 is not None and not sb3.step(sb3_locals(model, locals(), ro, t))
+        rewards = np.asarray(rewards, dtype=np.float32).copy()
+        model._episode_returns += (
+            rewards if vec_normalize is None else original_rewards(vec_normalize)
+        )
+        if model.nets.normalizer is not None:  # the training rewards only; returns stay raw
+            rewards = model.nets.normalizer.scale_rewards(rewards, dones)
+        for i in np.flatnonzero(dones):
+            final = infos[i].get("terminal_observation")
+            if infos[i].get("TimeLimit.truncated", False) and final is not None:
+                # time-limit truncation is not termination: bootstrap from V(final obs)
+                rewards[i] += cfg.gamma * float(model.nets.act(final)[2][0])
+            model.selector.episode_end(int(i), float(model._episode_returns[i]))
+            model.sb3.record_episode_info(infos[i])  # SB3's ep_info_buffer
+            if model.solo is not None:
+                model._deploy_if_worth(model.solo.end(int(i), float(model._episode_returns[i])))
+            model._episode_returns[i] = 0.0
+
+        ro.obs[t] = obs  # line 20: the transition and both levels' log-probabilities
+        if vec_normalize is not None:
+            ro.teacher_obs[t] = model.nets.flat_rows(teacher_obs)
+        ro.actions[t] = actions
+        ro.choices[t] = choices
+        ro.rewards[t] = rewards
+        ro.dones[t] = dones
+        ro.values[t] = values
+        ro.log_prob_low[t] = model.nets.np_low_log_prob(low_out, latent, actions)
+        ro.log_prob_high[t] = np_log_softmax(high_logits)[np.arange(E), choices]
+        model._last_obs = new_obs
+        model._episode_starts = np.asarray(dones, dtype=bool)
+        if stopped:  # as SB3: no update on a rollout that a callback cut short
+            return None
+    if ro.high_shift is not None:  # the price follows the spending (advice.paced_price)
+        spent0, remaining0, steps_left0 = pacing
+        limits.repace(limits.spent - spent0, T * E, remaining0, steps_left0)
+    last_values = model.nets.act(model._last_obs)[2]
+    ro.advantages, ro.returns = compute_gae(
+        ro.rewards, ro.values, ro.dones, last_values, cfg.gamma, cfg.gae_lambda
+    )
+    if model.recorder is not None:
+        model.recorder.record_selections(model.num_timesteps, ro.choices, ro.obs)
+    if sb3 is not None:
+        sb3.rollout_end(sb3_locals(model, locals(), ro, T))
+    return ro
+
+
+def advice_steps_left(model: Any) -> int:
+    """The steps left in the learn call in progress (its schedules' horizon), to pace the
+    price of answers over; 0 outside learn."""
+    if model._schedule is None:
+        return 0
+    origin, horizon = model._schedule
+    return max(origin + horizon - model.num_timesteps, 0)
+
+
+def limit_leaders(model: Any, limits: AdviceLedger) -> None:
+    """Teacher-led episodes under limited advice: once the budget is spent, every episode
+    that starts is the student's alone (it is: no teacher is asked again), and a leader
+    whose answers no longer fit in the budget stops leading (its episode's return is then
+    counted as an assisted one, not as the teacher's own)."""
+    assert model.solo is not None
+    if limits.exhausted:
+        starting = np.asarray(model._episode_starts, dtype=bool)
+        model.solo.active[starting] = True
+        model.solo.leader[starting] = -1
+    led = np.flatnonzero(model.solo.leader >= 0)
+    lost = led[~limits.can_lead()[led, model.solo.leader[led]]]
+    model.solo.leader[lost] = -1
+
+
+def charge_acting(
+    model: Any, limits: AdviceLedger, choices: np.ndarray, can: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Pay for the answers of the teachers that act now (env by env, while the budget
+    holds); a choice the budget no longer covers (spent by an environment before it in
+    this step) falls back to the agent, and so does one of a teacher that cannot answer
+    (a selector that reads no logits, random or ucb1, may pick it). Returns the choices
+    and the teachers each row's high-level choice was made among: those that could answer,
+    and a leader (teacher-led episodes ask their teacher whatever the asking rule says)."""
+    k = model.n_teachers
+    allowed = can.copy()
+    if model.solo is not None:  # a leader still leading (limit_leaders) can answer
+        led = np.flatnonzero(model.solo.leader >= 0)
+        allowed[led, model.solo.leader[led]] = True
+    rows = np.arange(len(choices))
+    choices = np.where((choices < k) & ~allowed[rows, np.minimum(choices, k - 1)], k, choices)
+    granted = limits.charge(acting_teachers(choices, k), acting=True)
+    refused = (choices < k) & ~granted.any(axis=1)
+    if refused.any():
+        choices = np.where(refused, k, choices)
+        if model.solo is not None:
+            model.solo.leader[refused] = -1
+    return choices, can | granted
+
+
+def sb3_locals(model: Any, local_vars: dict[str, Any], ro: Rollout, n_steps: int) -> dict[str, Any]:
+    """:func:`collect`'s variables, with the names of SB3's ``collect_rollouts`` that they
+    lack, as SB3 callbacks read them in ``self.locals``: ``self`` (the model), ``env``
+    (``get_env()``), ``callback``, ``rollout_buffer`` (this rollout, filled so far),
+    ``n_rollout_steps`` and ``n_steps`` (the steps collected before this one)."""
+    return {
+        **local_vars,
+        "self": model,
+        "env": model.get_env(),
+        "callback": local_vars["callbacks"],
+        "rollout_buffer": ro,
+        "n_rollout_steps": model.config.n_steps,
+        "n_steps": n_steps,
+    }
+
+
+def act_with_teachers(model: Any, obs: Any, net_obs: Any, deterministic: bool) -> np.ndarray:
+    """``TLAC.predict_with_teachers`` on a raw batch ``obs`` (``net_obs``: as the networks were
+    trained on it): the high level picks a teacher or the agent per row (Algorithm 1, line
+    14), the chosen teacher's action replaces the agent's (line 18); with ``deterministic``
+    the high level and the agent take their most likely choice."""
+    nets = model.nets
+    high_logits, low_out, _, latent = nets.act(net_obs)
+    choices = model.selector.evaluation_choices(high_logits, deterministic)
+    if deterministic:
+        actions = low_out.argmax(-1) if nets.discrete else low_out.copy()
+    else:
+        actions = nets.sample_low(low_out, latent)
+    query_teachers(model.teachers, choices, obs, model.action_space, actions)
+    return nets.to_env_actions(actions)
