@@ -612,8 +612,14 @@ def _teacher_likelihood(model_settings: dict, steps: int = 8000) -> float:
 def test_graduate_imitation_moves_the_student_towards_its_teacher():
     """8000 steps with one deterministic teacher: the student's likelihood of the teacher's
     actions on the teacher's own states is far higher with the imitation term than without it
-    (the same graduate variant with distill_coef 0 learns only from the advantage)."""
-    likelihood = {coef: _teacher_likelihood({"distill_coef": coef}) for coef in (1.0, 0.0)}
+    (the same graduate variant with distill_coef 0 learns only from the advantage). Under
+    Table 5's gradient clip, which holds the advantage's steps as short as the imitation's:
+    with DoorKey's loose clip (100) the advantage alone also reaches 0.55 by 8000 steps (0.63
+    with the imitation). The default's student alone: test_doorkey_student_alone_succeeds."""
+    likelihood = {
+        coef: _teacher_likelihood({"distill_coef": coef, "max_grad_norm": 0.5})
+        for coef in (1.0, 0.0)
+    }
     assert likelihood[1.0] > 0.35
     assert likelihood[1.0] > likelihood[0.0] + 0.2
 
