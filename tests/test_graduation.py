@@ -17,7 +17,7 @@ from tlac.algorithms.encoding import OneHotEncoder, make_encoder
 from tlac.domains import get_domain
 from tlac.errors import ConfigError, TeacherError
 from tlac.evaluation import evaluate_student
-from tlac.presets import load_preset
+from tlac.presets import DEFAULT_VARIANT, VARIANTS, load_preset
 from tlac.run import RunSpec, train_run
 from tlac.teachers.base import advice_actions, as_teacher, self_agreement_information
 from tlac.teachers.wrappers import (
@@ -165,6 +165,8 @@ def test_a_preset_value_given_per_variant_follows_the_run_variant():
         TLACConfig.from_settings({"variant": "paper", "max_grad_norm": {"graduate": 1.0}})
     with pytest.raises(ConfigError, match="unknown variant 'papr'"):
         TLACConfig.from_settings({**preset, "variant": "papr"})
+    # the presets' list of variants (a lower layer) is TL-AC's own
+    assert tuple(VARIANT_DEFAULTS) == VARIANTS and TLACConfig().variant == DEFAULT_VARIANT
 
 
 def test_a_users_environment_gets_the_default_preset():
