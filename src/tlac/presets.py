@@ -14,6 +14,10 @@ SB3's ``Schedule``: a function of the progress remaining (rl-zoo's ``linear_sche
 
 from __future__ import annotations
 
+import bisect
+import itertools
+import math
+import numbers
 from collections.abc import Callable
 from importlib import resources
 from typing import Any
@@ -139,3 +143,114 @@ def stretch_schedules(hp: dict[str, Any], steps: int, horizon: Any) -> dict[str,
             reached = start + (end - start) * steps / horizon
             out[key] = {"linear": [start, round(reached, 12)]}
     return out
+
+
+AVAILABILITY_FORMS = (
+    "a number in (0, 1], {linear: [start, end]} or {steps: [[step, chance], ...]} with chances "
+    "in [0, 1], or (from Python) a function of the environment step"
+)
+"""What a teacher's ``availability`` may be (docs/advice.md)."""
+
+
+def _chance(value: Any) -> bool:
+    """A real number in [0, 1] (not a bool)."""
+    return (
+        isinstance(value, numbers.Real)
+        and not isinstance(value, bool)
+        and math.isfinite(value)
+        and 0.0 <= value <= 1.0
+    )
+
+
+def availability_problem(value: Any) -> str | None:
+    """None where ``value`` is a teacher's availability, else what was expected: a number in
+    (0, 1] (0 would be a teacher never there: leave it out), ``{linear: [start, end]}`` over the
+    ``learn`` call's progress as :func:`make_schedule`'s, ``{steps: [[step, chance], ...]}``
+    (piecewise constant in the environment step, from step 0, steps increasing), each chance in
+    [0, 1] (a schedule may reach 0: the teacher has left), or a function of the step.
+
+    >>> availability_problem({"steps": [[0, 1.0], [20_000, 0.0]]}) is None
+    True
+    >>> availability_problem({"steps": [[100, 1.0]]})
+    '{steps: [[step, chance], ...]} starting at step 0, steps increasing, chances in [0, 1]'
+    """
+    if callable(value):
+        return None
+    if isinstance(value, numbers.Real) and not isinstance(value, bool):
+        return None if _chance(value) and value > 0 else "in (0, 1]"
+    if isinstance(value, dict) and list(value) == ["linear"]:
+        try:
+            validate_schedule("availability", value)
+        except ConfigError:
+            return "{linear: [start, end]} with start and end in [0, 1]"
+        if all(_chance(v) for v in value["linear"]):
+            return None
+        return "{linear: [start, end]} with start and end in [0, 1]"
+    if isinstance(value, dict) and list(value) == ["steps"]:
+        pairs = value["steps"]
+        expected = (
+            "{steps: [[step, chance], ...]} starting at step 0, steps increasing, chances in [0, 1]"
+        )
+        if not isinstance(pairs, list | tuple) or not pairs:
+            return expected
+        steps = []
+        for pair in pairs:
+            if not (isinstance(pair, list | tuple) and len(pair) == 2 and _chance(pair[1])):
+                return expected
+            step = pair[0]
+            if isinstance(step, bool) or not isinstance(step, numbers.Real):
+                return expected
+            if not math.isfinite(step) or step != int(step):
+                return expected
+            steps.append(int(step))
+        if steps[0] != 0 or any(b <= a for a, b in itertools.pairwise(steps)):
+            return expected
+        return None
+    return AVAILABILITY_FORMS
+
+
+def make_availability(value: Any) -> Callable[[int, float], float]:
+    """A teacher's availability (checked: :func:`availability_problem`) as ``f(step,
+    progress_remaining)``, the chance that it is present in an episode starting at environment
+    step ``step`` (``num_timesteps``) of a ``learn`` call whose schedules' progress remaining
+    is ``progress_remaining`` (1 -> 0): a number is that number; ``{linear: [start, end]}``
+    follows the progress as every tlac schedule (:func:`make_schedule`); ``{steps: ...}`` and a
+    function read the step. A function's value is returned as it is (the caller checks it).
+
+    >>> f = make_availability({"steps": [[0, 1.0], [20_000, 0.5], [50_000, 0.0]]})
+    >>> f(0, 1.0), f(19_999, 0.5), f(20_000, 0.5), f(10**6, 0.0)
+    (1.0, 1.0, 0.5, 0.0)
+    >>> make_availability({"linear": [1.0, 0.0]})(123, 0.25)
+    0.25
+    >>> make_availability(lambda step: 1.0 if step < 100 else 0.0)(100, 1.0)
+    0.0
+    """
+    if callable(value):
+        return lambda step, _progress_remaining: value(step)
+    if isinstance(value, dict) and list(value) == ["linear"]:
+        schedule = make_schedule(value, "availability")
+        return lambda _step, progress_remaining: schedule(progress_remaining)
+    if isinstance(value, dict) and list(value) == ["steps"]:
+        starts = [int(s) for s, _ in value["steps"]]
+        chances = [float(c) for _, c in value["steps"]]
+        return lambda step, _progress_remaining: chances[bisect.bisect_right(starts, step) - 1]
+    constant = float(value)
+    return lambda _step, _progress_remaining: constant
+
+
+def availability_form(value: Any) -> Any:
+    """A teacher's availability as a run reports it (result.json, config files): a number as
+    a float, a schedule as its mapping, a function as ``"callable"``.
+
+    >>> availability_form(0.5), availability_form(lambda step: 1.0)
+    (0.5, 'callable')
+    >>> availability_form({"steps": ((0, 1), (10, 0))})
+    {'steps': [[0, 1.0], [10, 0.0]]}
+    """
+    if callable(value):
+        return "callable"
+    if isinstance(value, dict) and list(value) == ["linear"]:
+        return {"linear": [float(v) for v in value["linear"]]}
+    if isinstance(value, dict) and list(value) == ["steps"]:
+        return {"steps": [[int(s), float(c)] for s, c in value["steps"]]}
+    return float(value)

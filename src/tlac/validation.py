@@ -222,6 +222,10 @@ def _check_type(algo: str, name: str, value: Any, hint: Any) -> None:
             raise _type_error(algo, name, "a mapping of teacher names to numbers", value)
         for key, number in value.items():
             _check_number(algo, f"{name}[{key!r}]", number, integer=False)
+    elif text.startswith("dict[str, typing.Any]"):  # a value per teacher name (availability:
+        # a number, a schedule or a function; its owner's own checks read each value)
+        if not isinstance(value, dict) or not all(isinstance(k, str) for k in value):
+            raise _type_error(algo, name, "a mapping of teacher names to values", value)
     elif isinstance(value, dict) and "dict" in text:
         _check_schedule(algo, name, value)
     elif "float" in text:

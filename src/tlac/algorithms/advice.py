@@ -30,6 +30,7 @@ where its answer is used, and each answer is paid for:
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -288,9 +289,21 @@ def per_teacher(
     >>> per_teacher({"random": 2.0}, ["optimal", "random_1", "random_2"], "teacher_cost", 1.0)
     array([1., 2., 2.])
     """
+    return np.array([float(v) for v in per_teacher_values(values, names, setting, default)])
+
+
+def per_teacher_values(
+    values: dict[str, Any], names: list[str], setting: str, default: Any
+) -> list[Any]:
+    """:func:`per_teacher` for values of any kind (an availability may be a schedule or a
+    function), as a list in the order of ``names``.
+
+    >>> per_teacher_values({"pd": {"linear": [1, 0]}}, ["pd", "coin"], "availability", 1.0)
+    [{'linear': [1, 0]}, 1.0]
+    """
     from tlac.errors import ConfigError
 
-    out = np.full(len(names), float(default))
+    out = [default] * len(names)
     for key, value in values.items():
         hits = [i for i, n in enumerate(names) if n == key]
         if not hits:
@@ -305,7 +318,8 @@ def per_teacher(
                 f"TL-AC setting {setting} names teacher {key!r}, not one of this run's teachers "
                 f"({teachers})"
             )
-        out[hits] = float(value)
+        for i in hits:
+            out[i] = value
     return out
 
 
@@ -332,21 +346,45 @@ class AdviceLedger:
     asked (``answers``), those used to act (``acted``) and those stored as labels (``labels``;
     an answer both acted on and stored counts once in ``answers``).
 
-    ``costs`` and ``availability``: per teacher; ``budget``: cost units, None for no limit.
+    ``costs``: per teacher; ``budget``: cost units, None for no limit. ``availability``: per
+    teacher, a number, or a schedule (``{linear: [start, end]}``, ``{steps: [[step, chance],
+    ...]}``) or a function of the environment step (tlac.presets.make_availability): the
+    chance it is present in an episode, taken at the step at which the episode starts
+    (:meth:`draw_presence`). ``names``: the teachers' names, for messages.
     """
 
     def __init__(
         self,
         costs: np.ndarray,
-        availability: np.ndarray,
+        availability: Sequence[Any] | np.ndarray,
         budget: float | None,
         n_envs: int,
         seed: int,
         rule: str = "always",
         threshold: float | None = None,
+        names: Sequence[str] | None = None,
     ):
+        from tlac.presets import make_availability
+
         self.costs = np.asarray(costs, dtype=np.float64)
-        self.availability = np.asarray(availability, dtype=np.float64)
+        given = availability.tolist() if isinstance(availability, np.ndarray) else availability
+        # tuples: rebuilt from the settings, not kept in a training state (attributes_state)
+        self.availability_given = tuple(given)
+        self.names = (
+            tuple(names)
+            if names is not None
+            else tuple(f"teacher {k}" for k in range(len(self.costs)))
+        )
+        self.schedules = tuple(
+            None if isinstance(v, int | float | np.number) else make_availability(v)
+            for v in self.availability_given
+        )
+        # each teacher's chance now: a schedule's at step 0 until draw_presence moves it
+        self.availability = np.array(
+            [float(v) if f is None else 0.0 for v, f in zip(given, self.schedules, strict=True)],
+            dtype=np.float64,
+        )
+        self.set_availability(0, 1.0)
         self.budget = math.inf if budget is None else float(budget)
         self.remaining = self.budget
         self.rule, self.threshold = rule, threshold
@@ -385,10 +423,39 @@ class AdviceLedger:
         if self.paced and math.isfinite(self.price):
             self.price = paced_price(self.price, spent, steps, remaining, steps_left)
 
-    def draw_presence(self, episode_starts: np.ndarray) -> None:
-        """Draw which teachers are present in the episodes that start now (each with its
-        availability); a teacher available with probability 1 is always present, no draw."""
+    def set_availability(self, step: int, progress_remaining: float) -> None:
+        """Each scheduled teacher's chance (``availability``) at environment step ``step``, in
+        a ``learn`` call with ``progress_remaining`` (1 -> 0); a constant one keeps its own. A
+        function's value that is no number in [0, 1] is one ConfigError naming the teacher."""
+        from tlac.errors import ConfigError
+
+        for k, schedule in enumerate(self.schedules):
+            if schedule is None:
+                continue
+            chance = schedule(step, progress_remaining)
+            ok = isinstance(chance, int | float | np.number) and not isinstance(
+                chance, bool | np.bool_
+            )
+            if not ok or not 0.0 <= float(chance) <= 1.0:  # NaN fails too
+                raise ConfigError(
+                    f"TL-AC setting availability[{self.names[k]!r}] must give a number in "
+                    f"[0, 1], got {chance!r} at step {step}"
+                )
+            self.availability[k] = float(chance)
+
+    def draw_presence(
+        self, episode_starts: np.ndarray, step: int | None = None, progress_remaining: float = 1.0
+    ) -> None:
+        """Draw which teachers are present in the episodes that start now, each with its
+        availability; no draw while every teacher's chance is 1 (a constant 1 never draws).
+        A scheduled teacher's chance is taken at ``step``, the environment step now, and
+        ``progress_remaining`` (:meth:`set_availability`; ``step`` None: as last set), at every
+        step: one whose chance is 0 has left, and is absent at once, in the episodes under way
+        too (a chance above 0 is drawn for only as episodes start)."""
         starting = np.flatnonzero(episode_starts)
+        if step is not None and any(f is not None for f in self.schedules):
+            self.set_availability(step, progress_remaining)
+            self.present[:, self.availability == 0] = False
         if len(starting) and (self.availability < 1).any():
             draws = self.rng.random((len(starting), len(self.availability)))
             self.present[starting] = draws < self.availability
@@ -452,7 +519,10 @@ class AdviceLedger:
 
     def summary(self, names: list[str]) -> dict[str, object]:
         """For result.json: the budget, what was spent, and per teacher its answers, those
-        used to act and those stored as labels."""
+        used to act and those stored as labels; the availability as given (a number, a
+        schedule's form, ``"callable"`` for a function)."""
+        from tlac.presets import availability_form
+
         return {
             "budget": None if not math.isfinite(self.budget) else self.budget,
             "spent": self.spent,
@@ -461,7 +531,7 @@ class AdviceLedger:
             "teachers": {
                 n: {
                     "cost": float(c),
-                    "availability": float(p),
+                    "availability": availability_form(p),
                     "answers": int(a),
                     "acted": int(x),
                     "labels": int(lab),
@@ -469,7 +539,7 @@ class AdviceLedger:
                 for n, c, p, a, x, lab in zip(
                     names,
                     self.costs,
-                    self.availability,
+                    self.availability_given,
                     self.answers,
                     self.acted,
                     self.labels,

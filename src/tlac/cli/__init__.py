@@ -70,17 +70,42 @@ def _teacher_numbers(flag: str, pairs: list[str]) -> dict[str, float]:
     >>> _teacher_numbers("--teacher-cost", ["optimal=2", "random=0.5"])
     {'optimal': 2.0, 'random': 0.5}
     """
-    out: dict[str, float] = {}
+    out: dict[str, Any] = {}
     for pair in pairs:
         name, _, value = pair.partition("=")
+        if flag == "--availability" and value.startswith("linear:"):
+            out[name.strip()] = _linear_availability(name, value, pair)
+            continue
         try:
             number = float(value)
         except ValueError:
             number = None
         if not name.strip() or number is None:
-            raise ConfigError(f"{flag} expects NAME=NUMBER, got {pair!r}")
+            expected = "NAME=NUMBER"
+            if flag == "--availability":
+                expected += " or NAME=linear:START:END"
+            raise ConfigError(f"{flag} expects {expected}, got {pair!r}")
         out[name.strip()] = number
     return out
+
+
+def _linear_availability(name: str, value: str, pair: str) -> dict[str, list[float]]:
+    """``--availability NAME=linear:START:END``: ``{linear: [START, END]}`` (over the run's
+    progress, as every tlac schedule; its range is the setting's own check).
+
+    >>> _linear_availability("pd", "linear:1.0:0.2", "pd=linear:1.0:0.2")
+    {'linear': [1.0, 0.2]}
+    """
+    parts = value.split(":")[1:]
+    try:
+        ends = [float(v) for v in parts]
+    except ValueError:
+        ends = []
+    if not name.strip() or len(ends) != 2:
+        raise ConfigError(
+            f"--availability expects NAME=NUMBER or NAME=linear:START:END, got {pair!r}"
+        )
+    return {"linear": ends}
 
 
 def _advice_overrides(args: argparse.Namespace) -> dict[str, Any]:
@@ -104,12 +129,12 @@ def _advice_overrides(args: argparse.Namespace) -> dict[str, Any]:
 def _check_teacher_names(overrides: dict[str, Any], names: list[str]) -> None:
     """A --teacher-cost / --availability name that is no teacher of the run: one ConfigError
     before anything is built (tlac.algorithms.advice.per_teacher)."""
-    from tlac.algorithms.advice import per_teacher
+    from tlac.algorithms.advice import per_teacher_values
     from tlac.teachers.base import unique_names
 
     for key in ("teacher_cost", "availability"):
         if isinstance(overrides.get(key), dict):
-            per_teacher(overrides[key], unique_names(names), key, 1.0)
+            per_teacher_values(overrides[key], unique_names(names), key, 1.0)
 
 
 def _cmd_train(args: argparse.Namespace) -> int:
@@ -415,8 +440,9 @@ def build_parser() -> argparse.ArgumentParser:
         action="append",
         default=[],
         metavar="NAME=P",
-        help="TL-AC: a teacher's chance to be present in an episode (default 1); repeat per "
-        "teacher",
+        help="TL-AC: a teacher's chance to be present in an episode (default 1), or "
+        "NAME=linear:START:END, a chance going from START to END over the run; repeat per "
+        "teacher (a step schedule: --set availability='{NAME: {steps: [[0, 1], [20000, 0]]}}')",
     )
     train.add_argument(
         "--eval-every",

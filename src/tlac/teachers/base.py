@@ -71,8 +71,9 @@ class NamedTeacher:
 class TeacherSpec:
     """A teacher with the terms of its advice (issue 66, docs/advice.md): ``cost`` per answer
     (what the run's ``advice_budget`` is spent in) and ``availability``, the chance it is
-    present in an episode. ``policy``: anything :func:`as_teacher` takes, or (env a domain
-    name) one of the domain's teacher names; ``name``: its name in logs and in the
+    present in an episode: a number, a schedule (``{steps: [[0, 1.0], [20000, 0.0]]}``) or a
+    function of the environment step. ``policy``: anything :func:`as_teacher` takes, or (env a
+    domain name) one of the domain's teacher names; ``name``: its name in logs and in the
     ``teacher_cost`` / ``availability`` settings it fills.
 
     >>> spec = TeacherSpec(lambda obs: 0, name="pd", cost=2.0, availability=0.5)
@@ -84,21 +85,27 @@ class TeacherSpec:
     """
 
     def __init__(
-        self, policy: Any, name: str | None = None, cost: float = 1.0, availability: float = 1.0
+        self, policy: Any, name: str | None = None, cost: float = 1.0, availability: Any = 1.0
     ):
         from tlac.errors import ConfigError
+        from tlac.presets import availability_problem
 
-        for field, value, expected, inside in (
-            ("cost", cost, "a number >= 0", lambda v: v >= 0.0),
-            ("availability", availability, "a number in (0, 1]", lambda v: 0.0 < v <= 1.0),
-        ):
-            ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
-            if not ok or not inside(float(value)):
-                raise ConfigError(f"TeacherSpec {field} must be {expected}, got {value!r}")
+        ok = isinstance(cost, numbers.Real) and not isinstance(cost, bool)
+        if not ok or not float(cost) >= 0.0:
+            raise ConfigError(f"TeacherSpec cost must be a number >= 0, got {cost!r}")
+        number = isinstance(availability, numbers.Real) and not isinstance(availability, bool)
+        if number and not 0.0 < float(availability) <= 1.0:  # NaN fails too
+            raise ConfigError(
+                f"TeacherSpec availability must be a number in (0, 1], got {availability!r}"
+            )
+        if not number and (expected := availability_problem(availability)) is not None:
+            raise ConfigError(f"TeacherSpec availability must be {expected}, got {availability!r}")
         if name is not None and (not isinstance(name, str) or not name):
             raise ConfigError(f"TeacherSpec name must be a non-empty string, got {name!r}")
         self.policy, self.name = policy, name
-        self.cost, self.availability = float(cost), float(availability)
+        # a number as a float; a schedule or a function of the step as it is
+        self.cost = float(cost)
+        self.availability = float(availability) if number else availability
 
     def resolve(self, action_space: gym.Space) -> Any:
         """What it stands for among a run's teachers: a domain teacher's name as it is, else

@@ -23,6 +23,7 @@ from tlac.algorithms.advice import (
 from tlac.algorithms.common import original_obs, original_rewards, query_teachers
 from tlac.algorithms.nets import np_log_softmax
 from tlac.algorithms.rollout import Rollout, compute_gae
+from tlac.two_level.persistence import schedule_progress
 
 if TYPE_CHECKING:
     from tlac.algorithms.callbacks import LearnCallbacks
@@ -75,7 +76,11 @@ def collect(model: Any, callbacks: LearnCallbacks | None = None) -> Rollout | No
         if limits is None:
             choices = model.selector.select(high_logits, model._episode_starts)  # line 14
         else:  # only teachers present, affordable and asked can be chosen
-            limits.draw_presence(model._episode_starts)
+            limits.draw_presence(
+                model._episode_starts,
+                model.num_timesteps,
+                schedule_progress(model._schedule, model.num_timesteps),
+            )
             asks = ask_gate(rule, low_out, cfg.advice.ask_threshold)
             can = limits.can_answer(asks)
             if ro.high_shift is not None:  # the behaviour policy pays the price of asking
@@ -83,6 +88,8 @@ def collect(model: Any, callbacks: LearnCallbacks | None = None) -> Rollout | No
                 high_logits = priced_logits(high_logits, ro.high_shift[t])
             choices = model.selector.select(mask_logits(high_logits, can), model._episode_starts)
         if model.solo is not None:  # graduate variant: some episodes are the student's alone
+            if limits is not None:  # a teacher whose availability is 0 now: not auditioned
+                model.solo.gone[:] = limits.availability == 0
             solo = model.solo.start(
                 model._episode_starts, None if limits is None else limits.can_lead()
             )

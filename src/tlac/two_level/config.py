@@ -9,6 +9,7 @@ preset and from SB3's ``policy_kwargs``.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -17,7 +18,13 @@ from tlac.algorithms.advice import ASK_RULES
 from tlac.algorithms.encoding import ENCODINGS
 from tlac.domains import domain_names, get_domain
 from tlac.errors import ConfigError, UnknownNameError
-from tlac.presets import DEFAULT_VARIANT, load_preset, settle_variant_values, validate_schedule
+from tlac.presets import (
+    DEFAULT_VARIANT,
+    availability_problem,
+    load_preset,
+    settle_variant_values,
+    validate_schedule,
+)
 from tlac.selectors import SELECTOR_NAMES
 from tlac.validation import Checks, from_mapping
 
@@ -81,11 +88,15 @@ class AdviceSettings:
     """Each teacher's cost per answer, by name (a name shared by several teachers, ``random``
     for ``random_1`` and ``random_2``, sets them all); a teacher left out costs 1. Only the
     budget reads it."""
-    availability: dict[str, float] = field(default_factory=dict)
-    """Each teacher's chance, by name, to be present in an episode, in (0, 1] (drawn per
-    episode and environment from a random stream of its own); a teacher left out is always
-    present. An
-    absent teacher can neither be chosen by the high level nor give a label."""
+    availability: dict[str, Any] = field(default_factory=dict)
+    """Each teacher's chance, by name, to be present in an episode (drawn per episode and
+    environment, at its start, from a random stream of its own); a teacher left out is always
+    present. A number in (0, 1]; or a chance that changes over the run, in [0, 1] (0: absent
+    from then on): ``{linear: [start, end]}`` over the ``learn`` call's progress (as
+    learning_rate's), ``{steps: [[0, 1.0], [20000, 0.0]]}`` piecewise constant in the
+    environment step (``num_timesteps``), or, from Python, a function of that step
+    (``lambda step: 1.0 if step < 20_000 else 0.0``; a model file keeps its value at save
+    time). An absent teacher can neither be chosen by the high level nor give a label."""
     ask: str = "always"
     """In which states the student asks its teachers (tlac.algorithms.advice.ask_gate): always
     (every state; tlac's default and the paper's), early (every state while the budget lasts:
@@ -109,8 +120,12 @@ class AdviceSettings:
         for name, cost in self.teacher_cost.items():
             check.number(f"teacher_cost[{name!r}]", cost, 0.0)
         for name, chance in self.availability.items():
-            # (0: never present, never judged by the graduate variant's audition: leave it out)
-            check.number(f"availability[{name!r}]", chance, 0.0, 1.0, open_low=True)
+            if is_constant(chance):
+                # (0: never present, never judged by the graduate variant's audition: leave
+                # it out; a schedule may reach 0, the teacher then leaves)
+                check.number(f"availability[{name!r}]", chance, 0.0, 1.0, open_low=True)
+            elif (expected := availability_problem(chance)) is not None:
+                raise check.error(f"availability[{name!r}]", expected, chance)
         check.one_of("ask", self.ask, ASK_RULES)
         if self.ask_threshold is not None:
             high = 1.0 if self.ask == "uncertainty" else math.inf
@@ -125,14 +140,19 @@ class AdviceSettings:
 
     @property
     def limits(self) -> bool:
-        """Whether advice is limited: a budget, a teacher not always present, or an asking rule
-        other than always. Without, the run is the one before budgets existed, byte for byte
-        (answers are only counted)."""
+        """Whether advice is limited: a budget, a teacher not always present (a schedule or a
+        function counts, whatever its values), or an asking rule other than always. Without,
+        the run is the one before budgets existed, byte for byte (answers are only counted)."""
         return (
             self.advice_budget is not None
-            or any(p < 1 for p in self.availability.values())
+            or any(not is_constant(p) or p < 1 for p in self.availability.values())
             or self.ask != "always"
         )
+
+
+def is_constant(availability: Any) -> bool:
+    """Whether an availability is a number (not a schedule nor a function)."""
+    return isinstance(availability, numbers.Real) and not isinstance(availability, bool)
 
 
 ADVICE_SETTINGS = tuple(AdviceSettings.__dataclass_fields__)

@@ -242,6 +242,9 @@ class SoloEpisodes:
         self.led_sums = np.zeros(n_teachers)  # per teacher: its led episodes' returns, summed
         self.led_squares = np.zeros(n_teachers)  # ... and their squares, summed
         self.led_counts = np.zeros(n_teachers, dtype=np.int64)
+        # per teacher: gone now (its availability, a schedule or a function, is 0 at this
+        # step): the audition does not wait for it (collect sets it; tlac.algorithms.advice)
+        self.gone = np.zeros(n_teachers, dtype=bool)
         self.led_low, self.led_high = np.inf, -np.inf  # the range of led returns (UCB1's scale)
         self.active = np.zeros(n_envs, dtype=bool)
         self.rng = np.random.default_rng([seed, 0x501])  # its own stream: acting is untouched
@@ -270,6 +273,8 @@ class SoloEpisodes:
         episodes) and every teacher's own return (``MIN_LED_EPISODES`` led episodes) are
         measured. These first episodes are played in that order (:meth:`start`) and nothing is
         copied meanwhile (:attr:`weaning` 1): a teacher is copied only once it can be judged.
+        A teacher gone now (:attr:`gone`: its availability schedule is at 0) is not waited
+        for; one that arrives later (its schedule rises from 0) reopens the audition.
         Before, the copy began at the first update, and one deterministic teacher that never
         reaches a sparse goal took the student's exploration away before it could be judged
         (Acrobot: the low level's entropy at 0.04 of 1.10 nats after 4k steps; the student
@@ -279,7 +284,7 @@ class SoloEpisodes:
             and self.budget > 0
             and (
                 self.solo_episodes < self.min_episodes
-                or bool((self.led_counts < MIN_LED_EPISODES).any())
+                or bool(((self.led_counts < MIN_LED_EPISODES) & ~self.gone).any())
             )
         )
 
@@ -291,18 +296,19 @@ class SoloEpisodes:
         adversarial one, would otherwise be copied in full (its led episodes at the floor read
         as "no evidence yet"), and the copy takes away the random exploration that gives the
         student its first successes (Acrobot, a teacher that never swings up: -500 against
-        PPO alone's -82, issue 63)."""
+        PPO alone's -82, issue 63). A teacher gone now (:attr:`gone`) is not judged."""
+        here = ~self.gone
         if (
             self.teacher_share <= 0
             or not np.isfinite(self.floor)
-            or len(self.led_counts) == 0
-            or (self.led_counts < MIN_LED_EPISODES).any()
+            or not here.any()
+            or (self.led_counts[here] < MIN_LED_EPISODES).any()
         ):
             return False
         return not any(
             shows_help(total, squares, int(count), self.floor)
             for total, squares, count in zip(
-                self.led_sums, self.led_squares, self.led_counts, strict=True
+                self.led_sums[here], self.led_squares[here], self.led_counts[here], strict=True
             )
         )
 

@@ -160,8 +160,8 @@ def with_teacher_terms(config: TLACConfig, teachers: Any, names: list[str]) -> T
         ):
             if name in values and values[name] != value:
                 raise ConfigError(
-                    f"teacher {name!r} has {setting} {value:g} in its TeacherSpec and "
-                    f"{values[name]:g} in the settings; give it once"
+                    f"teacher {name!r} has {setting} {value!r} in its TeacherSpec and "
+                    f"{values[name]!r} in the settings; give it once"
                 )
             if value != default:
                 values[name] = value

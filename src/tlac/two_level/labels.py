@@ -10,7 +10,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import torch
 
-from tlac.algorithms.advice import AdviceLedger, acting_teachers, per_teacher
+from tlac.algorithms.advice import (
+    AdviceLedger,
+    acting_teachers,
+    per_teacher,
+    per_teacher_values,
+)
 from tlac.errors import ConfigError
 from tlac.teachers.base import advice_actions, advice_probabilities, take_rows
 from tlac.two_level.graduation import AdviceBuffer
@@ -128,12 +133,13 @@ def make_advice_ledger(
         )
     return AdviceLedger(
         per_teacher(terms.teacher_cost, teacher_names, "teacher_cost", 1.0),
-        per_teacher(terms.availability, teacher_names, "availability", 1.0),
+        per_teacher_values(terms.availability, teacher_names, "availability", 1.0),
         terms.advice_budget,
         n_envs,
         seed,
         terms.ask,
         terms.ask_threshold,
+        names=teacher_names,
     )
 
 

@@ -89,6 +89,17 @@ def loaded_config(
     custom = dict(custom_objects or {})
     if "lr_schedule" in custom:  # SB3's name of the learning rate's schedule
         custom.setdefault("learning_rate", custom.pop("lr_schedule"))
+    saved = dict(state["config"])
+    availability = custom.pop("availability", None)  # an advice setting: by teacher name
+    if availability is not None:
+        if not isinstance(availability, dict):
+            raise ConfigError(
+                "custom_objects: availability must be a dict of teachers' availabilities by "
+                f"name, got {type(availability).__name__}"
+            )
+        advice = dict(saved.get("advice") or {})
+        advice["availability"] = {**advice.get("availability", {}), **availability}
+        saved["advice"] = advice
     unknown = sorted(set(custom) - {f.name for f in dataclasses.fields(TLACConfig)})
     if unknown:
         raise ConfigError(
@@ -106,8 +117,20 @@ def loaded_config(
         if resume:
             raise ConfigError(message)
         warnings.warn(message, stacklevel=3)
+    kept = [k for k in state.get("availability_functions", []) if k not in (availability or {})]
+    if kept:
+        chances = saved["advice"]["availability"]
+        values = ", ".join(f"{k!r} {chances[k]['steps'][0][1]:.3g}" for k in kept)
+        message = (
+            f"{where}: a teacher's availability given as a function was saved as its value "
+            f"then ({values}), a model file holding plain data; to follow it again pass it to "
+            f"TLAC.load as custom_objects={{'availability': {{{kept[0]!r}: f}}}}"
+        )
+        if resume:
+            raise ConfigError(message)
+        warnings.warn(message, stacklevel=3)
     check_setting_types(TLACConfig, custom, "TL-AC")
-    return TLACConfig(**{**state["config"], **custom})
+    return TLACConfig(**{**saved, **custom})
 
 
 def file_parameters(state: dict[str, Any]) -> dict[str, Any]:
@@ -192,6 +215,17 @@ def save(
     functions = [name for name in SCHEDULES if callable(config[name])]
     for name in functions:  # SB3's Schedule: its value now (load warns of it)
         config[name] = float(config[name](schedule_progress(model._schedule, model.num_timesteps)))
+    chances = config["advice"]["availability"]
+    availability_functions = [key for key, value in chances.items() if callable(value)]
+    for key in availability_functions:  # a function of the step: its value now, as a schedule
+        # (a constant schedule: the run stays limited, as it was; load warns of it)
+        chance = chances[key](model.num_timesteps)
+        if isinstance(chance, bool) or not isinstance(chance, int | float | np.number):
+            raise ConfigError(
+                f"TL-AC setting availability[{key!r}] must give a number in [0, 1], got "
+                f"{chance!r} at step {model.num_timesteps}"
+            )
+        chances[key] = {"steps": [[0, float(chance)]]}
     state = {
         "format": FORMAT,
         "config": config,
@@ -206,6 +240,8 @@ def save(
     }
     if functions:
         state["functions"] = functions
+    if availability_functions:
+        state["availability_functions"] = availability_functions
     vec_normalize = model.get_vec_normalize_env()
     if vec_normalize is not None:  # the user's VecNormalize: its statistics, as tensors
         state["vec_normalize"] = vec_normalize_state(vec_normalize)
