@@ -13,7 +13,8 @@ where its answer is used, and each answer is paid for:
   is never exceeded. Once nothing fits, no teacher is asked again: the student acts alone.
 * **Availability**: each teacher is present in an episode with its probability, drawn per
   episode and environment from this module's own random stream (acting is otherwise
-  untouched). An absent teacher can neither be chosen (its high-level logit is masked) nor
+  untouched); a probability may change with the step (a schedule or a function:
+  tlac.presets.make_availability), and one of 0 means the teacher has left. An absent teacher can neither be chosen (its high-level logit is masked) nor
   give a label.
 * **Asking rules** (:data:`ASK_RULES`) decide, state by state, whether the student asks at all
   (:func:`ask_gate`): the baselines of the action-advising literature, Torrey & Taylor 2013
