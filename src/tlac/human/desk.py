@@ -14,7 +14,7 @@ Everything the page should see goes out through the listeners (:meth:`Desk.subsc
 the server turns into WebSocket messages.
 
 >>> desk = Desk(["left", "right"], timeout=0.01)
->>> desk.present(), desk.ask(b"s", None, None)[0]     # nobody at the page: absent
+>>> desk.present(), desk.ask(None, None)[0]     # nobody at the page: absent
 (False, None)
 """
 
@@ -43,6 +43,7 @@ class Question:
     frame: str | None
     guess: int | None
     mode: str = "ask"
+    state: str | None = None
     asked_at: float = field(default_factory=time.monotonic)
     done: threading.Event = field(default_factory=threading.Event)
     action: int | None = None
@@ -56,6 +57,7 @@ class Question:
             "frame": self.frame,
             "guess": self.guess,
             "mode": self.mode,
+            "state": self.state,
             "pending": pending,
             "left": left,
         }
@@ -158,27 +160,28 @@ class Desk:
         return self.connections > 0 and time.monotonic() >= self.away_until
 
     def ask(
-        self, frame: str | None, guess: int | None, state: Any = None, mode: str = "ask"
+        self, frame: str | None, guess: int | None, state: str | None = None, mode: str = "ask"
     ) -> tuple[int | None, float | None]:
         """Post one question and wait for it; see :meth:`ask_many`. Returns ``(action,
         seconds)``, ``(None, None)`` where the person did not answer."""
-        return self.ask_many([(frame, guess)], mode)[0]
+        return self.ask_many([(frame, guess, state)], mode)[0]
 
     def ask_many(
-        self, questions: list[tuple[str | None, int | None]], mode: str = "ask"
+        self, questions: list[tuple[str | None, int | None, str | None]], mode: str = "ask"
     ) -> list[tuple[int | None, float | None]]:
-        """Post ``questions`` (``(frame, guess)`` each) at once and wait for their answers,
+        """Post ``questions`` (``(frame, guess, state)`` each: the frame's data URL, the
+        student's guess, the observation as text) at once and wait for their answers,
         ``timeout`` seconds in all; ``(None, None)`` for each one not answered: no page open,
         the queue full, the time out (the person then counts as away) or the tab closed."""
         if not self.present():
             return [(None, None)] * len(questions)
         posted: list[Question | None] = []
         with self._lock:
-            for frame, guess in questions:
+            for frame, guess, state in questions:
                 if len(self._pending) >= self.max_pending:
                     posted.append(None)
                     continue
-                q = Question(next(self._ids), frame, guess, mode)
+                q = Question(next(self._ids), frame, guess, mode, state)
                 self._pending[q.id] = q
                 posted.append(q)
                 self.stats["asked"] += 1

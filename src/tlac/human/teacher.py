@@ -165,7 +165,11 @@ class HumanTeacher:
         start = int(self.action_space.start)
         frames = [None if self.framer is None else self.framer.frame(o) for o in obs]
         asked = self.desk.ask_many(
-            [(f, int(g) - start) for f, g in zip(frames, out, strict=True)], self.mode
+            [
+                (f, int(g) - start, encode_state(o))
+                for f, g, o in zip(frames, out, obs, strict=True)
+            ],
+            self.mode,
         )
         for i, (action, seconds) in enumerate(asked):
             if action is None:
