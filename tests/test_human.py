@@ -478,3 +478,19 @@ def test_a_scripted_person_in_headless_chromium_teaches_the_student(tmp_path):
     assert screenshot.exists() and screenshot.stat().st_size > 1000
     if steps >= 300_000:
         assert result["final_eval_mean"] >= 0.9
+
+
+@pytest.mark.slow
+def test_with_nobody_answering_the_page_costs_at_most_10_percent():
+    """benchmarks/human_overhead.py: steps per CPU second of this process (every thread, the
+    server's included) with the page and without, interleaved, the best of 3 each."""
+    import importlib.util
+
+    path = ROOT / "benchmarks" / "human_overhead.py"
+    spec = importlib.util.spec_from_file_location("human_overhead", path)
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    result = bench.overhead(steps=2000, repeats=3)
+    print(json.dumps(result))
+    assert result["asked"] == 0
+    assert result["ratio_cpu"] >= 0.9
