@@ -23,7 +23,7 @@ pytest.importorskip("starlette", reason="tlac[human] is not installed")
 pytest.importorskip("uvicorn", reason="tlac[human] is not installed")
 
 from tlac.human.desk import Desk  # noqa: E402
-from tlac.human.teacher import (  # noqa: E402
+from tlac.teachers.human import (  # noqa: E402
     AdviceLog,
     HumanTeacher,
     ReplayTeacher,
@@ -417,7 +417,7 @@ def test_import_tlac_imports_no_web_framework():
     import sys
 
     code = (
-        "import sys, tlac, tlac.human.teacher, tlac.human.desk, tlac.cli\n"
+        "import sys, tlac, tlac.teachers.human, tlac.human.desk, tlac.cli\n"
         "bad = [m for m in ('starlette', 'uvicorn', 'websockets') if m in sys.modules]\n"
         "print(bad)"
     )

@@ -13,8 +13,8 @@ SRC = Path(__file__).resolve().parent.parent / "src"
 
 LAYERS: list[tuple[str, ...]] = [
     ("tlac.errors", "tlac.argtypes", "tlac.presets", "tlac.validation", "tlac.memory"),
-    # generic: base, wrappers, the shipped-policy teachers (sac, ppo); a person's answers
-    ("tlac.teachers", "tlac.human.teacher"),
+    # generic: base, wrappers, the shipped-policy teachers (sac, ppo), a person's answers
+    ("tlac.teachers",),
     ("tlac.recording",),
     ("tlac.domains", "tlac.gym_ids"),
     ("tlac.algorithms", "tlac.selectors"),  # the registry, the parts algorithms share

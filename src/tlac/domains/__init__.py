@@ -315,7 +315,7 @@ def parse_teacher_spec(domain: Domain, spec: str) -> tuple[str, float | None]:
 
 def _person_teacher(spec: str) -> str:
     """``human`` (the person at tlac teach's page) or ``replay:RUN`` (a person's answers in
-    RUN/advice.csv, tlac.human.teacher), checked: a recording that is not there is a
+    RUN/advice.csv, tlac.teachers.human), checked: a recording that is not there is a
     ConfigError before anything is built."""
     if spec.startswith("replay:"):
         run = Path(spec.removeprefix("replay:"))
@@ -329,8 +329,8 @@ def _person_teacher(spec: str) -> str:
 
 
 def _make_person_teacher(name: str, env: gym.Env, seed: int) -> Teacher:
-    """The ``human`` or ``replay:RUN`` teacher (tlac.human.teacher; no web framework needed)."""
-    from tlac.human.teacher import HumanTeacher, ReplayTeacher
+    """The ``human`` or ``replay:RUN`` teacher (tlac.teachers.human; no web framework needed)."""
+    from tlac.teachers.human import HumanTeacher, ReplayTeacher
 
     if name == "human":
         return HumanTeacher(env.action_space)

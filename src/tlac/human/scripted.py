@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from tlac.human.teacher import decode_state
+from tlac.teachers.human import decode_state
 
 POLL = 0.005
 """Seconds between two looks at the page."""

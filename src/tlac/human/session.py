@@ -2,7 +2,7 @@
 ``tlac train`` (tlac.run: the run folder, checkpoints, resume) with the desk, the page's
 server, ``advice.csv`` and the take-over wired in (docs/human-teacher.md).
 
-* The ``human`` teacher (tlac.human.teacher.HumanTeacher) gets the desk, the student's greedy
+* The ``human`` teacher (tlac.teachers.human.HumanTeacher) gets the desk, the student's greedy
   guess, the frames of the training environments and the run's ``advice.csv``.
 * Under limited advice (``tlac teach`` always gives a budget), the ledger masks the person
   while no tab is open or after a question timed out (tlac.algorithms.advice.AdviceLedger.
@@ -28,7 +28,7 @@ import numpy as np
 from tlac.errors import ConfigError
 from tlac.human.desk import Desk
 from tlac.human.render import Framer
-from tlac.human.teacher import ADVICE_FILE, AdviceLog, HumanTeacher
+from tlac.teachers.human import ADVICE_FILE, AdviceLog, HumanTeacher
 
 EPISODES_FILE = "human_episodes.csv"
 EPISODE_COLUMNS = ("timestep", "start_step", "length", "return", "episode", "led_by", "completed")
