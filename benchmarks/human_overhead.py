@@ -129,7 +129,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--questions", type=int, default=50)
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args(argv)
-    result = {"latency": question_latency(args.questions), "overhead": overhead(args.steps, args.repeats)}
+    result = {
+        "latency": question_latency(args.questions),
+        "overhead": overhead(args.steps, args.repeats),
+    }
     if args.json:
         print(json.dumps(result, indent=2))
         return 0

@@ -22,8 +22,8 @@ import pytest
 pytest.importorskip("starlette", reason="tlac[human] is not installed")
 pytest.importorskip("uvicorn", reason="tlac[human] is not installed")
 
-from tlac.human.desk import Desk  # noqa: E402
-from tlac.teachers.human import (  # noqa: E402
+from tlac.human.desk import Desk
+from tlac.teachers.human import (
     AdviceLog,
     HumanTeacher,
     ReplayTeacher,
@@ -296,8 +296,10 @@ def test_a_question_reaches_the_page_within_200_ms():
                 thread.join(5)
     finally:
         server.stop()
-    print(f"question latency: median {statistics.median(delays) * 1e3:.1f} ms, "
-          f"max {max(delays) * 1e3:.1f} ms")
+    print(
+        f"question latency: median {statistics.median(delays) * 1e3:.1f} ms, "
+        f"max {max(delays) * 1e3:.1f} ms"
+    )
     assert statistics.median(delays) < 0.2 and max(delays) < 1.0
 
 
@@ -446,7 +448,9 @@ def test_a_scripted_person_in_headless_chromium_teaches_the_student(tmp_path):
     pytest.importorskip("selenium", reason="selenium is not installed (pip install 'tlac[dev]')")
     browser, driver = _chromium()
     if browser is None or driver is None:
-        pytest.skip("Debian's chromium and chromium-driver are not installed (apt-get install chromium chromium-driver)")
+        pytest.skip(
+            "Debian's chromium and chromium-driver are not installed (apt-get install chromium chromium-driver)"
+        )
     from tlac.human.scripted import BrowserPerson
     from tlac.human.session import TeachSession, action_names
     from tlac.run import RunSpec, train_run

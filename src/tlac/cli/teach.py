@@ -126,8 +126,7 @@ def register(subparsers: Any) -> None:
     """Add ``teach`` to the main CLI's sub-parsers."""
     teach = subparsers.add_parser(
         "teach",
-        help="train with a person as a teacher through a browser page (pip install "
-        "'tlac[human]')",
+        help="train with a person as a teacher through a browser page (pip install 'tlac[human]')",
         description="Trains TL-AC with a local web page (127.0.0.1, a random token in its URL) "
         "where a person answers the student's questions: the state as the environment draws "
         "it, the actions as buttons with keyboard shortcuts, the student's guess, the questions "
@@ -181,7 +180,10 @@ def register(subparsers: Any) -> None:
         "--eval-episodes", type=non_negative_int, default=10, help="episodes per evaluation"
     )
     teach.add_argument(
-        "--checkpoint-every", type=positive_int, default=10_000, metavar="N",
+        "--checkpoint-every",
+        type=positive_int,
+        default=10_000,
+        metavar="N",
         help="save a checkpoint every N steps (default 10000): Ctrl-C, then the same command, "
         "continues from it",
     )

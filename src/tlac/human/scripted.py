@@ -59,8 +59,13 @@ class BrowserPerson:
 
         options = webdriver.ChromeOptions()
         options.binary_location = self.browser
-        for flag in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage",
-                     "--disable-gpu", "--window-size=1000,560"):
+        for flag in (
+            "--headless=new",
+            "--no-sandbox",
+            "--disable-dev-shm-usage",
+            "--disable-gpu",
+            "--window-size=1000,560",
+        ):
             options.add_argument(flag)
         self.driver = webdriver.Chrome(service=Service(self.driver_path), options=options)
         self.driver.get(self.url)

@@ -155,7 +155,9 @@ class TeachSession:
             self.episodes.flush()
         self._install_takeover(model)
         self.desk.left = self._left()
-        self._thread = threading.Thread(target=self._report, name="tlac-teach-progress", daemon=True)
+        self._thread = threading.Thread(
+            target=self._report, name="tlac-teach-progress", daemon=True
+        )
         self._thread.start()
 
     def on_eval(self, timestep: int, student: float, train_return: float | None) -> None:
@@ -219,7 +221,15 @@ class TeachSession:
         episode = int(getattr(venv, "episodes_done", 0)) if completed else -1
         if self.episodes is not None:
             csv.writer(self.episodes).writerow(
-                [step, self.lead_start, step - self.lead_start, ret, episode, "human", int(completed)]
+                [
+                    step,
+                    self.lead_start,
+                    step - self.lead_start,
+                    ret,
+                    episode,
+                    "human",
+                    int(completed),
+                ]
             )
             self.episodes.flush()
         self.takeovers += 1

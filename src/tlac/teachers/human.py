@@ -206,9 +206,13 @@ class ReplayTeacher:
     chosen elsewhere; asked elsewhere all the same (a run without limits), it answers a
     uniformly random action and its label says nothing (the uniform distribution)."""
 
-    def __init__(self, run: str | Path, action_space: gym.Space, seed: int = 0, name: str = "replay"):
+    def __init__(
+        self, run: str | Path, action_space: gym.Space, seed: int = 0, name: str = "replay"
+    ):
         if not isinstance(action_space, gym.spaces.Discrete):
-            raise ConfigError(f"replay: a person's answers are Discrete actions, not {action_space}")
+            raise ConfigError(
+                f"replay: a person's answers are Discrete actions, not {action_space}"
+            )
         self.action_space, self.name, self.source = action_space, name, str(run)
         rows = read_advice(run)
         votes: dict[bytes, Counter[int]] = {}
