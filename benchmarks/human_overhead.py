@@ -50,7 +50,7 @@ def question_latency(n: int = 50) -> dict[str, float]:
             for _ in range(n):
                 box: list[Any] = []
                 posted = time.perf_counter()
-                thread = threading.Thread(target=lambda: box.append(desk.ask(None, 0)))
+                thread = threading.Thread(target=lambda box=box: box.append(desk.ask(None, 0)))
                 thread.start()
                 while True:
                     message = json.loads(ws.recv(timeout=5))

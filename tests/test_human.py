@@ -108,35 +108,37 @@ def test_a_request_or_socket_without_the_token_is_refused():
 def test_forged_action_ids_and_malformed_messages_are_refused(caplog):
     desk = Desk(["left", "right", "forward"], timeout=5.0)
     c, refusals = client(desk)
-    with caplog.at_level(logging.WARNING, logger="tlac.human"):
-        with c.websocket_connect(f"/ws?token={TOKEN}") as ws:
-            ws.receive_json()
-            thread, answers = ask_in_thread(desk)
-            question = ws.receive_json()
-            assert question["type"] == "question"
-            qid = question["id"]
-            bad = [
-                {"type": "answer", "id": qid, "action": 3},  # out of range
-                {"type": "answer", "id": qid, "action": -1},
-                {"type": "answer", "id": qid, "action": 1.0},
-                {"type": "answer", "id": qid, "action": True},
-                {"type": "answer", "id": qid, "action": "1"},
-                {"type": "answer", "id": qid + 1000, "action": 1},  # forged question
-                {"type": "answer", "id": qid, "action": 1, "extra": 1},
-                {"type": "answer", "id": qid},
-                {"type": "shutdown"},
-                [1, 2, 3],
-                "null",
-            ]
-            for message in bad:
-                ws.send_text(json.dumps(message))
-            ws.send_text("{not json")
-            ws.send_text("x" * 5000)
-            ws.send_bytes(b"\x00\x01")
-            time.sleep(0.2)
-            assert thread.is_alive() and desk.stats["answered"] == 0
-            ws.send_text(json.dumps({"type": "answer", "id": qid, "action": 2}))
-            thread.join(5)
+    with (
+        caplog.at_level(logging.WARNING, logger="tlac.human"),
+        c.websocket_connect(f"/ws?token={TOKEN}") as ws,
+    ):
+        ws.receive_json()
+        thread, answers = ask_in_thread(desk)
+        question = ws.receive_json()
+        assert question["type"] == "question"
+        qid = question["id"]
+        bad = [
+            {"type": "answer", "id": qid, "action": 3},  # out of range
+            {"type": "answer", "id": qid, "action": -1},
+            {"type": "answer", "id": qid, "action": 1.0},
+            {"type": "answer", "id": qid, "action": True},
+            {"type": "answer", "id": qid, "action": "1"},
+            {"type": "answer", "id": qid + 1000, "action": 1},  # forged question
+            {"type": "answer", "id": qid, "action": 1, "extra": 1},
+            {"type": "answer", "id": qid},
+            {"type": "shutdown"},
+            [1, 2, 3],
+            "null",
+        ]
+        for message in bad:
+            ws.send_text(json.dumps(message))
+        ws.send_text("{not json")
+        ws.send_text("x" * 5000)
+        ws.send_bytes(b"\x00\x01")
+        time.sleep(0.2)
+        assert thread.is_alive() and desk.stats["answered"] == 0
+        ws.send_text(json.dumps({"type": "answer", "id": qid, "action": 2}))
+        thread.join(5)
     assert answers == [(2, answers[0][1])]
     assert refusals.total == 14
     assert not any(r.exc_info for r in caplog.records)
@@ -146,20 +148,22 @@ def test_forged_action_ids_and_malformed_messages_are_refused(caplog):
 def test_a_flood_of_10000_messages_is_refused_without_changing_anything(caplog):
     desk = Desk(["a", "b"], timeout=30.0)
     c, refusals = client(desk)
-    with caplog.at_level(logging.WARNING, logger="tlac.human"):
-        with c.websocket_connect(f"/ws?token={TOKEN}") as ws:
-            ws.receive_json()
-            thread, answers = ask_in_thread(desk)
-            qid = ws.receive_json()["id"]
-            forged = json.dumps({"type": "answer", "id": qid, "action": 7})
-            for _ in range(10_000):
-                ws.send_text(forged)
-            ws.send_text(json.dumps({"type": "here"}))  # the socket still reads
-            wait_for(lambda: refusals.total >= 10_000, 60)
-            assert thread.is_alive() and desk.stats["answered"] == 0
-            time.sleep(0.1)  # the rate limit refills
-            ws.send_text(json.dumps({"type": "answer", "id": qid, "action": 1}))
-            thread.join(10)
+    with (
+        caplog.at_level(logging.WARNING, logger="tlac.human"),
+        c.websocket_connect(f"/ws?token={TOKEN}") as ws,
+    ):
+        ws.receive_json()
+        thread, answers = ask_in_thread(desk)
+        qid = ws.receive_json()["id"]
+        forged = json.dumps({"type": "answer", "id": qid, "action": 7})
+        for _ in range(10_000):
+            ws.send_text(forged)
+        ws.send_text(json.dumps({"type": "here"}))  # the socket still reads
+        wait_for(lambda: refusals.total >= 10_000, 60)
+        assert thread.is_alive() and desk.stats["answered"] == 0
+        time.sleep(0.1)  # the rate limit refills
+        ws.send_text(json.dumps({"type": "answer", "id": qid, "action": 1}))
+        thread.join(10)
     assert answers[0][0] == 1
     assert 10_000 <= refusals.total <= 10_001  # (the "here" may fall in the flood too)
     assert len(caplog.records) < 30  # the first few in full, then one line per thousand
@@ -348,7 +352,7 @@ def teach_run(tmp_path: Path, steps: int, takeover: bool = False, person: bool =
 
 
 def test_a_run_with_a_scripted_person_writes_its_answers_and_a_take_over(tmp_path):
-    result, person, session = teach_run(tmp_path, 800, takeover=True)
+    result, person, _ = teach_run(tmp_path, 800, takeover=True)
     run = tmp_path / "run"
     assert result["finished"] and person.answers > 0
     rows = read_advice(run)
@@ -378,7 +382,7 @@ def test_a_run_with_a_scripted_person_writes_its_answers_and_a_take_over(tmp_pat
 
 
 def test_with_nobody_at_the_page_the_person_is_never_asked(tmp_path):
-    result, person, session = teach_run(tmp_path, 300, person=False)
+    result, _, session = teach_run(tmp_path, 300, person=False)
     assert result["finished"] and session.desk.stats["asked"] == 0
     assert result["advice"]["teachers"]["human"]["answers"] == 0
     assert read_advice(tmp_path / "run") == []
