@@ -33,6 +33,9 @@ from tlac.teachers.human import (
 
 ROOT = Path(__file__).resolve().parent.parent
 TOKEN = "test-token"
+PORT = 8123
+BASE = f"http://127.0.0.1:{PORT}"
+WS = f"ws://127.0.0.1:{PORT}"  # TestClient.websocket_connect ignores base_url
 
 
 def client(desk: Desk):
@@ -43,7 +46,7 @@ def client(desk: Desk):
         from starlette.testclient import TestClient
 
         refusals = Refusals()
-        return TestClient(make_app(desk, TOKEN, refusals)), refusals
+        return TestClient(make_app(desk, TOKEN, refusals), base_url=BASE), refusals
 
 
 def ask_in_thread(desk: Desk, n: int = 1) -> tuple[threading.Thread, list]:
@@ -93,13 +96,118 @@ def test_a_request_or_socket_without_the_token_is_refused():
     assert page.status_code == 200 and "tlac teach" in page.text
     assert "<script src" not in page.text and "cdn" not in page.text.lower()  # nothing fetched
     for url in ("/ws", "/ws?token=wrong", f"/ws?token={TOKEN}x"):
-        with pytest.raises(WebSocketDisconnect), c.websocket_connect(url) as ws:
+        with pytest.raises(WebSocketDisconnect), c.websocket_connect(WS + url) as ws:
             ws.receive_json()
     assert desk.connections == 0 and refusals.total >= 9
-    with c.websocket_connect(f"/ws?token={TOKEN}") as ws:
+    with c.websocket_connect(f"{WS}/ws?token={TOKEN}") as ws:
         assert ws.receive_json() == {"type": "hello", "actions": ["left", "right"], "timeout": 10.0}
         assert desk.connections == 1
     wait_for(lambda: desk.connections == 0)
+
+
+def test_a_request_or_socket_for_another_host_or_origin_is_refused(caplog):
+    """DNS rebinding (a page of evil.example whose name now points at 127.0.0.1) sends its
+    own Host; a cross-site page's WebSocket sends its own Origin: both refused, token or not."""
+    from starlette.websockets import WebSocketDisconnect
+
+    desk = Desk(["left", "right"])
+    c, refusals = client(desk)
+    good = f"/?token={TOKEN}"
+    with caplog.at_level(logging.WARNING, logger="tlac.human"):
+        for host in (f"127.0.0.1:{PORT}", f"localhost:{PORT}", f"LOCALHOST:{PORT}"):
+            assert c.get(good, headers={"Host": host}).status_code == 200, host
+        assert refusals.total == 0
+        bad_hosts = [
+            f"evil.example:{PORT}",
+            "evil.example",
+            "127.0.0.1",
+            f"127.0.0.1:{PORT + 1}",
+            f"127.0.0.2:{PORT}",
+            f"localhost.evil.example:{PORT}",
+            f"[::1]:{PORT}",
+            "",
+        ]
+        for host in bad_hosts:
+            page = c.get(good, headers={"Host": host})
+            assert page.status_code == 403 and "Host" in page.text, host
+            assert "tlac teach" not in page.text
+        assert refusals.total == len(bad_hosts)
+        ws_url = f"{WS}/ws?token={TOKEN}"
+        for host in bad_hosts[:3]:
+            with (
+                pytest.raises(WebSocketDisconnect),
+                c.websocket_connect(ws_url, headers={"Host": host}) as ws,
+            ):
+                ws.receive_json()
+        bad_origins = [
+            "http://evil.example",
+            f"http://evil.example:{PORT}",
+            f"https://127.0.0.1:{PORT}",
+            f"http://127.0.0.1:{PORT + 1}",
+            f"http://localhost:{PORT}",  # a page from the other name is another origin
+            "null",
+            "",
+        ]
+        for origin in bad_origins:
+            with (
+                pytest.raises(WebSocketDisconnect),
+                c.websocket_connect(ws_url, headers={"Origin": origin}) as ws,
+            ):
+                ws.receive_json()
+        assert desk.connections == 0
+        assert refusals.total == len(bad_hosts) + 3 + len(bad_origins)
+        # the page's own origin, and none (a client that is not a browser): let in
+        for headers in (
+            {"Origin": BASE},
+            {},
+            {"Host": f"localhost:{PORT}", "Origin": f"http://localhost:{PORT}"},
+        ):
+            with c.websocket_connect(ws_url, headers=headers) as ws:
+                assert ws.receive_json()["type"] == "hello", headers
+            wait_for(lambda: desk.connections == 0)
+    assert refusals.total == len(bad_hosts) + 3 + len(bad_origins)
+    assert not any(r.exc_info for r in caplog.records)
+    assert "Traceback" not in caplog.text
+    assert "Host: 'evil.example:8123' is not 127.0.0.1:8123 or localhost:8123" in caplog.text
+    assert refusals.counts == {
+        "http Host": len(bad_hosts),
+        "websocket Host": 3,
+        "websocket Origin": len(bad_origins),
+    }
+
+
+def test_the_real_server_refuses_a_rebound_host_and_a_cross_site_origin():
+    """The same through uvicorn on 127.0.0.1 (the port is the one it bound)."""
+    pytest.importorskip("websockets")
+    import socket
+
+    import httpx
+    from websockets.exceptions import InvalidStatus
+    from websockets.sync.client import connect
+
+    from tlac.human.server import PageServer
+
+    desk = Desk(["a", "b"], timeout=5.0)
+    server = PageServer(desk)
+    url = server.start()
+    try:
+        assert httpx.get(url).status_code == 200
+        assert httpx.get(url, headers={"Host": f"evil.example:{server.port}"}).status_code == 403
+        ws_url = url.replace("http://", "ws://").replace("/?token=", "/ws?token=")
+        with pytest.raises(InvalidStatus):
+            connect(ws_url, origin="http://evil.example").close()
+        with socket.create_connection(("127.0.0.1", server.port), timeout=5) as raw:
+            raw.sendall(  # a rebound page's handshake: its own host name, and the token
+                f"GET /ws?token={server.token} HTTP/1.1\r\nHost: evil.example:{server.port}\r\n"
+                "Upgrade: websocket\r\nConnection: Upgrade\r\n"
+                "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n".encode()
+            )
+            assert raw.recv(1024).startswith(b"HTTP/1.1 403")
+        with connect(ws_url, origin=f"http://127.0.0.1:{server.port}") as ws:
+            assert json.loads(ws.recv(timeout=5))["type"] == "hello"
+        assert server.refusals.total == 3
+    finally:
+        server.stop()
 
 
 # -- malformed, forged and flooding messages -------------------------------------------------
@@ -110,7 +218,7 @@ def test_forged_action_ids_and_malformed_messages_are_refused(caplog):
     c, refusals = client(desk)
     with (
         caplog.at_level(logging.WARNING, logger="tlac.human"),
-        c.websocket_connect(f"/ws?token={TOKEN}") as ws,
+        c.websocket_connect(f"{WS}/ws?token={TOKEN}") as ws,
     ):
         ws.receive_json()
         thread, answers = ask_in_thread(desk)
@@ -150,7 +258,7 @@ def test_a_flood_of_10000_messages_is_refused_without_changing_anything(caplog):
     c, refusals = client(desk)
     with (
         caplog.at_level(logging.WARNING, logger="tlac.human"),
-        c.websocket_connect(f"/ws?token={TOKEN}") as ws,
+        c.websocket_connect(f"{WS}/ws?token={TOKEN}") as ws,
     ):
         ws.receive_json()
         thread, answers = ask_in_thread(desk)

@@ -6,6 +6,10 @@ Safe by default:
 * bound to the loopback address; no option binds another;
 * a random token (:func:`new_token`) is required on every request and on the WebSocket
   handshake (``?token=``): without it, HTTP 403 and a refused handshake, before any route;
+* the ``Host`` header of every request and handshake must be ``127.0.0.1:PORT`` or
+  ``localhost:PORT`` (a DNS-rebinding page names its own host), and a handshake's ``Origin``,
+  when the browser sends one, the page's own (``http://`` and that host: a cross-site page
+  cannot open the socket); refused like a wrong token, before any route;
 * every message from the page is parsed strictly (:func:`parse_message`): JSON objects of a
   known type with exactly its fields, action ids among the buttons, at most
   :data:`MAX_MESSAGE` bytes; anything else is refused, counted and logged (the first few in
@@ -123,22 +127,63 @@ class Refusals:
             LOG.warning("tlac teach: %d messages from the page refused so far", self.total)
 
 
+def _header(scope: dict[str, Any], name: bytes) -> str | None:
+    """The first value of a request header, or None."""
+    for key, value in scope.get("headers") or ():
+        if key.lower() == name:
+            return value.decode("latin-1")
+    return None
+
+
+def allowed_hosts(port: int) -> set[str]:
+    """The ``Host`` headers the page's server answers: the loopback address by number or by
+    name, with the port (without it too for port 80, where browsers leave it out)."""
+    hosts = {f"{HOST}:{port}", f"localhost:{port}"}
+    if port == 80:
+        hosts |= {HOST, "localhost"}
+    return hosts
+
+
+def check_request(scope: dict[str, Any], token: bytes) -> str:
+    """Why an HTTP request or WebSocket handshake is refused, or "" when it is let in: the
+    token, the ``Host`` header, and a handshake's ``Origin``."""
+    kind = scope["type"]
+    query = parse_qs(scope.get("query_string", b"").decode("latin-1"))
+    given = query.get("token", [""])[0].encode("latin-1", "replace")
+    if not hmac.compare_digest(given, token):
+        return f"{kind}: wrong or missing token"
+    server = scope.get("server")
+    port = server[1] if server and len(server) > 1 else None
+    host = _header(scope, b"host")
+    if not isinstance(port, int) or host is None or host.lower() not in allowed_hosts(port):
+        return (
+            f"{kind} Host: {str(host)[:60]!r} is not {HOST}:{port} or localhost:{port} "
+            "(a DNS-rebinding page?)"
+        )
+    origin = _header(scope, b"origin")
+    if kind == "websocket" and origin is not None and origin.lower() != f"http://{host.lower()}":
+        return (
+            f"{kind} Origin: {origin[:60]!r} is not the page's own, http://{host[:60]} "
+            "(a cross-site page?)"
+        )
+    return ""
+
+
 class TokenGate:
-    """ASGI middleware: every HTTP request and WebSocket handshake must carry the token."""
+    """ASGI middleware: every HTTP request and WebSocket handshake must carry the token and
+    name the page's own host (and, for a handshake, its origin): :func:`check_request`."""
 
     def __init__(self, app: Any, token: str, refusals: Refusals):
         self.app, self.token, self.refusals = app, token.encode(), refusals
 
     async def __call__(self, scope: dict[str, Any], receive: Any, send: Any) -> None:
         if scope["type"] in ("http", "websocket"):
-            query = parse_qs(scope.get("query_string", b"").decode("latin-1"))
-            given = query.get("token", [""])[0].encode("latin-1", "replace")
-            if not hmac.compare_digest(given, self.token):
-                self.refusals.refuse(f"{scope['type']}: wrong or missing token")
+            why = check_request(scope, self.token)
+            if why:
+                self.refusals.refuse(why)
                 if scope["type"] == "http":
-                    await PlainTextResponse("forbidden: wrong or missing token", 403)(
-                        scope, receive, send
-                    )
+                    reason = "wrong or missing token" if why.endswith("token") else "wrong Host"
+                    await PlainTextResponse(f"forbidden: {reason}", 403)(scope, receive, send)
                 else:  # close before accepting: the handshake is refused (HTTP 403)
                     message = await receive()
                     if message["type"] == "websocket.connect":
