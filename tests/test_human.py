@@ -573,7 +573,7 @@ def test_a_scripted_person_in_headless_chromium_teaches_the_student(tmp_path):
         teachers=["human", "random"],
         steps=steps,
         overrides={"advice_budget": 1000},
-        eval_every=max(steps // 10, 500),
+        eval_every=max(steps // 15, 200),  # a few points on the page's plot by the screenshot
         eval_episodes=20 if steps >= 100_000 else 5,
     )
     from tlac.domains.doorkey.env import make_doorkey_env

@@ -18,16 +18,18 @@ POLL = 0.005
 """Seconds between two looks at the page."""
 
 _READ = """
-const f = document.getElementById('frame');
+const f = document.getElementById('frame'), plot = document.getElementById('plot');
+if (!f || !plot) return ['', '', [], 0];  // the page is still loading
 const b = Array.from(document.querySelectorAll('#buttons button')).map(x => x.dataset.key);
-return [f.dataset.question || '', f.dataset.state || '', b];
+return [f.dataset.question || '', f.dataset.state || '', b, Number(plot.dataset.points || 0)];
 """
 
 
 class BrowserPerson:
     """Opens ``url`` in headless Chromium and answers in a thread of its own until
     :meth:`stop`; ``policy(state) -> action`` (default: DoorKey's optimal teacher). Writes a
-    screenshot of the page to ``screenshot`` after ``shot_after`` answers."""
+    screenshot of the page to ``screenshot`` once it has given ``shot_after`` answers and the
+    plot has ``shot_points`` evaluations of the student (or at :meth:`stop`, if never)."""
 
     def __init__(
         self,
@@ -37,6 +39,8 @@ class BrowserPerson:
         policy: Any = None,
         screenshot: str | Path | None = None,
         shot_after: int = 40,
+        shot_points: int = 3,
+        window: tuple[int, int] = (1100, 760),
     ):
         self.url, self.browser, self.driver_path = url, browser, driver
         if policy is None:
@@ -46,7 +50,7 @@ class BrowserPerson:
             policy = lambda state: int(optimal.predict(np.asarray(state)[None])[0])  # noqa: E731
         self.policy = policy
         self.screenshot = None if screenshot is None else Path(screenshot)
-        self.shot_after = shot_after
+        self.shot_after, self.shot_points, self.window = shot_after, shot_points, window
         self.answers = 0
         self.error: str | None = None
         self._stop = threading.Event()
@@ -64,7 +68,7 @@ class BrowserPerson:
             "--no-sandbox",
             "--disable-dev-shm-usage",
             "--disable-gpu",
-            "--window-size=1000,560",
+            f"--window-size={self.window[0]},{self.window[1]}",
         ):
             options.add_argument(flag)
         self.driver = webdriver.Chrome(service=Service(self.driver_path), options=options)
@@ -102,7 +106,7 @@ class BrowserPerson:
             last = ""
             shot = False
             while not self._stop.is_set():
-                question, state, keys = self.driver.execute_script(_READ)
+                question, state, keys, points = self.driver.execute_script(_READ)
                 if not question or question == last or not state or not keys:
                     time.sleep(POLL)
                     continue
@@ -110,7 +114,12 @@ class BrowserPerson:
                 body.send_keys(self._key(keys[action]))
                 last = question
                 self.answers += 1
-                if self.screenshot is not None and not shot and self.answers >= self.shot_after:
+                if (
+                    self.screenshot is not None
+                    and not shot
+                    and self.answers >= self.shot_after
+                    and points >= self.shot_points
+                ):
                     self._shoot(question)
                     shot = True
             if self.screenshot is not None and not shot:
@@ -123,7 +132,7 @@ class BrowserPerson:
         """A screenshot with a question on the page (the next one to come)."""
         deadline = time.monotonic() + 5.0
         while time.monotonic() < deadline and not self._stop.is_set():
-            shown, _, _ = self.driver.execute_script(_READ)
+            shown, _, _, _ = self.driver.execute_script(_READ)
             if shown and shown != question:
                 break
             time.sleep(POLL)
