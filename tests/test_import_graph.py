@@ -13,12 +13,13 @@ SRC = Path(__file__).resolve().parent.parent / "src"
 
 LAYERS: list[tuple[str, ...]] = [
     ("tlac.errors", "tlac.argtypes", "tlac.presets", "tlac.validation", "tlac.memory"),
-    ("tlac.teachers",),  # generic: base, wrappers, the shipped-policy teachers (sac, ppo)
+    # generic: base, wrappers, the shipped-policy teachers (sac, ppo), a person's answers
+    ("tlac.teachers",),
     ("tlac.recording",),
     ("tlac.domains", "tlac.gym_ids"),
     ("tlac.algorithms", "tlac.selectors"),  # the registry, the parts algorithms share
     ("tlac.two_level", "tlac.baselines"),  # TL-AC; the baselines it is compared with
-    ("tlac.evaluation", "tlac.run", "tlac.teacher_training"),
+    ("tlac.evaluation", "tlac.run", "tlac.teacher_training", "tlac.human"),
     ("tlac.experiments",),
     ("tlac.cli", "tlac.__main__"),
 ]

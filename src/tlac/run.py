@@ -72,6 +72,8 @@ RUN_FILES = (
     "model-last.pt",
     "model-last.zip",
     "config.yaml",
+    "advice.csv",  # a person's answers (tlac teach, tlac.human)
+    "human_episodes.csv",
     RESULT_FILE,
 )
 
@@ -412,6 +414,7 @@ def train_run(
     checkpoint_every: int | None = CHECKPOINT_EVERY,
     fresh: bool = False,
     trust_pickle: bool = False,
+    on_model: Any = None,
 ) -> dict[str, Any]:
     """Train one run described by ``spec`` and write its run folder; returns ``result.json``'s
     content. Every setting is checked before anything is written (:func:`resolve_run`; a
@@ -425,7 +428,8 @@ def train_run(
     episodes, teachers included, or ``None`` before the first episode ends). ``fresh``: never
     continue from a checkpoint (``tlac train --force``). ``trust_pickle``: open the SB3
     agents named as teachers (``--trust-pickle``; tlac.teachers.files; a ResolvedRun carries
-    its own)."""
+    its own). ``on_model(model, out)``: called with the model once it is built or loaded from
+    the checkpoint, before it learns (tlac teach hands it to the person's page)."""
     run = spec if isinstance(spec, ResolvedRun) else resolve_run(spec, trust_pickle)
     if not str(out_dir).strip():
         raise ConfigError("--out '' names no folder; expected the run folder's path")
@@ -449,6 +453,7 @@ def train_run(
                 on_eval=on_eval,
                 checkpoint_every=checkpoint_every,
                 meta=meta,
+                on_model=on_model,
             )
     except ConfigError:  # refused when the model was built (its memory): leave no folder
         if created and not (out / CHECKPOINT).exists():
@@ -462,6 +467,7 @@ def resume_run(
     on_eval: Any = None,
     checkpoint_every: int | None = CHECKPOINT_EVERY,
     trust_pickle: bool = False,
+    on_model: Any = None,
 ) -> dict[str, Any]:
     """Continue the unfinished run in ``run_dir`` from its last checkpoint (``tlac train
     --resume``). With TL-AC, DQN-TLQL and AC-Teach the continuation is exact: the run files end
@@ -501,6 +507,7 @@ def resume_run(
             on_eval=on_eval,
             checkpoint_every=checkpoint_every,
             meta=meta,
+            on_model=on_model,
         )
 
 
@@ -594,13 +601,21 @@ def _train_locked(
     on_eval: Any,
     checkpoint_every: int | None = None,
     meta: dict[str, Any] | None = None,
+    on_model: Any = None,
 ) -> dict[str, Any]:
     """The run itself, the folder locked; ``meta``: the run state of the checkpoint to
     continue from (None: from scratch)."""
     spec, domain, hp = run.spec, run.domain, run.hyperparameters
     resume = meta is not None
     if meta is not None:
-        for name in ("episodes.csv", "eval.csv", "progress.csv", "teacher_usage.csv"):
+        for name in (
+            "episodes.csv",
+            "eval.csv",
+            "progress.csv",
+            "teacher_usage.csv",
+            "advice.csv",
+            "human_episodes.csv",
+        ):
             _keep_rows_until(out / name, int(meta["num_timesteps"]))
         _keep_monitor_rows(out / MONITOR_FILE, out / "episodes.csv")
     else:
@@ -706,6 +721,8 @@ def _train_locked(
             save_checkpoint(algo.num_timesteps)
         return True
 
+    if on_model is not None:
+        on_model(model, out)
     start = time.time()
     if spec.eval_every and not resume:
         evaluate(0)

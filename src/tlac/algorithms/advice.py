@@ -341,6 +341,20 @@ def mask_logits(high_logits: np.ndarray, can_answer: np.ndarray) -> np.ndarray:
     return torch.where(keep, high_logits, torch.full_like(high_logits, MASKED_LOGIT))
 
 
+class OutsidePresence:
+    """Which teachers the world outside the run says are there now (:meth:`AdviceLedger.
+    outside_presence`): a person whose browser tab is closed, or who let a question time out
+    (tlac.human), a recorded teacher in a state it never answered. A small holder, so that a
+    checkpoint (which keeps the ledger's arrays) does not keep it: it is set again each step.
+
+    >>> OutsidePresence(np.array([[True, False]])).mask.tolist()
+    [[True, False]]
+    """
+
+    def __init__(self, mask: np.ndarray):
+        self.mask = np.asarray(mask, dtype=bool)
+
+
 class AdviceLedger:
     """The advice a run may still ask and the answers it has asked: the budget left, each
     teacher's presence in every environment's current episode, and per teacher the answers
@@ -400,6 +414,25 @@ class AdviceLedger:
         # ask learned: the price of an answer per unit of cost, charged in the high level's
         # logits (priced_logits); nan until the first rollout sets it (starting_price)
         self.price = math.nan
+        # teachers the outside world says are absent now (outside_presence); None: none is
+        self.outside: OutsidePresence | None = None
+
+    def outside_presence(self, present: np.ndarray | None) -> None:
+        """Say which teachers are there now, beyond the drawn availability: ``present``
+        ``(K,)`` or ``(E, K)`` bool (False: absent, it can neither be chosen nor lead now), or
+        None (every teacher is). Set before each step by the run (tlac.human: a person with no
+        tab open, or away after a question timed out, is absent, so the high level cannot
+        choose it).
+
+        >>> ledger = AdviceLedger(np.ones(2), np.ones(2), None, 1, 0)
+        >>> ledger.outside_presence(np.array([True, False]))
+        >>> ledger.can_lead().tolist()
+        [[True, False]]
+        """
+        if present is None:
+            self.outside = None
+            return
+        self.outside = OutsidePresence(np.broadcast_to(present, self.present.shape))
 
     @property
     def paced(self) -> bool:
@@ -472,8 +505,12 @@ class AdviceLedger:
 
     def can_lead(self) -> np.ndarray:
         """``(E, K)``: the teachers that can answer in each environment now, whatever the
-        asking rule says (present, and affordable)."""
-        return self.present & self.affordable()
+        asking rule says (present, affordable, and not absent by the outside world's say:
+        :meth:`outside_presence`)."""
+        can = self.present & self.affordable()
+        if self.outside is not None:
+            can = can & self.outside.mask
+        return can
 
     def can_answer(self, gate: np.ndarray) -> np.ndarray:
         """``(E, K)``: the teachers the high level may choose in each environment: present,

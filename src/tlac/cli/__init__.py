@@ -6,6 +6,7 @@
     tlac eval runs/demo --episodes 100 [--with-teachers] [--json]
     tlac envs                       # domains, their teachers and regions
     tlac teacher train|eval ...     # SAC teachers; measure any teacher
+    tlac teach doorkey --advice-budget 1000   # a person as a teacher through a browser page
     tlac experiment run CONFIG --out DIR [--workers N] [--backend ray]
     tlac report DIR
     tlac results pack DIR           # DIR/runs/ -> DIR/runs.tar.xz (what the reports read)
@@ -143,6 +144,11 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
     if args.resume is not None:
         config = load_run_config(args.resume)
+        if "human" in (config.get("teacher_kinds") or []):
+            raise ConfigError(
+                f"{args.resume!r} has a person as a teacher: continue it with the tlac teach "
+                "command that started it (the same --out)"
+            )
         print(f"tlac train: resuming {args.resume} ({config['algo']} on {config['env']})")
         result = resume_run(
             args.resume,
@@ -164,6 +170,11 @@ def _cmd_train(args: argparse.Namespace) -> int:
         )
     if args.algo in NO_ADVICE and teachers:
         raise ConfigError(f"--algo {args.algo} learns without advice; drop --teachers")
+    if teachers and "human" in teachers:
+        raise ConfigError(
+            "the teacher human is a person at a browser page: train with tlac teach ENV "
+            "--teachers ... (docs/human-teacher.md)"
+        )
     spec = RunSpec(
         env=args.env,
         algo=args.algo,
@@ -543,6 +554,9 @@ def build_parser() -> argparse.ArgumentParser:
     from tlac.cli import results as results_cli
 
     results_cli.register(sub)
+    from tlac.cli import teach as teach_cli
+
+    teach_cli.register(sub)
     return parser
 
 

@@ -287,6 +287,8 @@ def parse_teacher_spec(domain: Domain, spec: str) -> tuple[str, float | None]:
     good / noisy construction, appendix A.1.1, with any probability). A teacher named by file
     (``path/to/file.py:NAME``, ``agent.zip``, an rl-zoo folder: tlac.teachers.files), with any
     domain, gives the file's spec without its ``:P``."""
+    if spec == "human" or spec.startswith("replay:"):  # a person (tlac teach), a recording
+        return _person_teacher(spec), None
     found = teacher_file(spec)
     if found is not None:
         name, colon, prob_text = found.source(), found.prob is not None, found.prob or ""
@@ -309,6 +311,30 @@ def parse_teacher_spec(domain: Domain, spec: str) -> tuple[str, float | None]:
     if not 0.0 <= prob <= 1.0:  # NaN fails this too
         raise ConfigError(f"teacher {spec!r}: probability {prob} is outside [0, 1]")
     return name, prob
+
+
+def _person_teacher(spec: str) -> str:
+    """``human`` (the person at tlac teach's page) or ``replay:RUN`` (a person's answers in
+    RUN/advice.csv, tlac.teachers.human), checked: a recording that is not there is a
+    ConfigError before anything is built."""
+    if spec.startswith("replay:"):
+        run = Path(spec.removeprefix("replay:"))
+        csv_file = run if run.suffix == ".csv" else run / "advice.csv"
+        if not csv_file.is_file():
+            raise ConfigError(
+                f"teacher {spec!r}: {str(csv_file)!r} does not exist (replay:RUN replays the "
+                "answers a person gave in the tlac teach run RUN)"
+            )
+    return spec
+
+
+def _make_person_teacher(name: str, env: gym.Env, seed: int) -> Teacher:
+    """The ``human`` or ``replay:RUN`` teacher (tlac.teachers.human; no web framework needed)."""
+    from tlac.teachers.human import HumanTeacher, ReplayTeacher
+
+    if name == "human":
+        return HumanTeacher(env.action_space)
+    return ReplayTeacher(name.removeprefix("replay:"), env.action_space, seed)
 
 
 class ParsedTeacher(NamedTuple):
@@ -345,8 +371,10 @@ def make_teachers(
     teachers: list[Teacher] = []
     for i, ((_, name, prob), label) in enumerate(zip(parsed, labels, strict=True)):
         teacher_seed = seed + 1000 * (i + 1)
-        found = teacher_file(name)
-        if found is None:
+        found = None if name == "human" or name.startswith("replay:") else teacher_file(name)
+        if found is None and (name == "human" or name.startswith("replay:")):
+            teacher = _make_person_teacher(name, env, teacher_seed)
+        elif found is None:
             teacher = domain.make_teacher(name, env, teacher_seed)
         else:
             teacher = load_teacher_file(found, env, trust_pickle)
@@ -360,7 +388,9 @@ def make_teachers(
 
 def _teacher_label(spec: str) -> str:
     """A teacher's name in logs: a domain's spec as it is, a file's its object's or agent's
-    name (with its ``:P``)."""
+    name (with its ``:P``); a person's recorded answers ``replay``."""
+    if spec.startswith("replay:"):
+        return "replay"
     found = teacher_file(spec)
     if found is None:
         return spec

@@ -91,7 +91,7 @@ def check_teacher_files(specs: list[str], trust_pickle: bool, how: str = "--trus
     """ConfigError, before anything is written, for a teacher file that is missing, a Python
     file's teacher without a name, or an agent's pickles without ``trust_pickle``."""
     for spec in specs:
-        found = teacher_file(spec)
+        found = None if spec.startswith("replay:") else teacher_file(spec)
         if found is None:
             continue
         if found.kind == "python" and not found.attr:

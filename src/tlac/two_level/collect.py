@@ -61,6 +61,10 @@ def collect(model: Any, callbacks: LearnCallbacks | None = None) -> Rollout | No
     # ask learned and mistake: labels come only from the teacher that acted (learned: the
     # high level's ask; mistake: where it disagreed with the student), none from the others
     labels_from_gate = rule not in ("learned", "mistake")
+    # teachers that answer only when they act (a person: tlac.human) give no other labels, and
+    # teachers that say when they are there (a person's open tab, a recording's known states)
+    outside = outside_teachers(model.teachers) if limits is not None else None
+    labels_from = None if outside is None else ~outside[1]
     for t in range(T):
         if cfg.use_sde and cfg.sde_sample_freq > 0 and t > 0 and t % cfg.sde_sample_freq == 0:
             model.nets.resample_sde_noise()
@@ -81,6 +85,8 @@ def collect(model: Any, callbacks: LearnCallbacks | None = None) -> Rollout | No
                 model.num_timesteps,
                 schedule_progress(model._schedule, model.num_timesteps),
             )
+            if outside is not None:
+                limits.outside_presence(outside_presence(outside[0], model, vec_normalize))
             asks = ask_gate(rule, low_out, cfg.advice.ask_threshold)
             can = limits.can_answer(asks)
             if ro.high_shift is not None:  # the behaviour policy pays the price of asking
@@ -103,6 +109,10 @@ def collect(model: Any, callbacks: LearnCallbacks | None = None) -> Rollout | No
         if limits is not None:  # the acting teachers' answers, paid for
             choices, high_mask = charge_acting(model, limits, choices, can)
             ro.askable[t] = limits.present & (asks & labels_from_gate)[:, None]
+            if labels_from is not None:  # nor asked for labels where absent or acting only
+                ro.askable[t] &= labels_from
+                if limits.outside is not None:
+                    ro.askable[t] &= limits.outside.mask
             ro.high_mask[t] = high_mask
             high_logits = mask_logits(high_logits, high_mask)
         actions = model.nets.sample_low(low_out, latent)  # line 16 (kept where the agent acts)
@@ -163,6 +173,32 @@ def collect(model: Any, callbacks: LearnCallbacks | None = None) -> Rollout | No
     if sb3 is not None:
         sb3.rollout_end(sb3_locals(model, locals(), ro, T))
     return ro
+
+
+def outside_teachers(teachers: list[Any]) -> tuple[list[Any], np.ndarray] | None:
+    """The teachers that say themselves when they are there (a ``presence(obs)`` method giving
+    ``(n,)`` bool) and those that answer only when they act (``acting_only``: a person is not
+    asked to label the states it did not act in): ``([teacher or None per teacher], (K,)
+    acting-only flags)``, or None where no teacher does either (the run as before)."""
+    inner = [getattr(t, "teacher", t) for t in teachers]
+    present = [t if callable(getattr(t, "presence", None)) else None for t in inner]
+    acting_only = np.array([bool(getattr(t, "acting_only", False)) for t in inner], dtype=bool)
+    if all(p is None for p in present) and not acting_only.any():
+        return None
+    return present, acting_only
+
+
+def outside_presence(present: list[Any], model: Any, vec_normalize: Any) -> np.ndarray | None:
+    """``(E, K)``: each teacher's own say on whether it is there in each environment's state
+    now (True for the teachers that say nothing); None where none says anything."""
+    if all(p is None for p in present):
+        return None
+    obs = model._last_obs if vec_normalize is None else original_obs(vec_normalize)
+    mask = np.ones((model.n_envs, len(present)), dtype=bool)
+    for k, teacher in enumerate(present):
+        if teacher is not None:
+            mask[:, k] = np.asarray(teacher.presence(obs), dtype=bool).reshape(model.n_envs)
+    return mask
 
 
 def advice_steps_left(model: Any) -> int:

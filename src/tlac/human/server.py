@@ -1,0 +1,340 @@
+"""The page's web server: Starlette with one WebSocket, served by uvicorn in a background
+thread on 127.0.0.1 only (``pip install 'tlac[human]'``).
+
+Safe by default:
+
+* bound to the loopback address; no option binds another;
+* a random token (:func:`new_token`) is required on every request and on the WebSocket
+  handshake (``?token=``): without it, HTTP 403 and a refused handshake, before any route;
+* the ``Host`` header of every request and handshake must be ``127.0.0.1:PORT`` or
+  ``localhost:PORT`` (a DNS-rebinding page names its own host), and a handshake's ``Origin``,
+  when the browser sends one, the page's own (``http://`` and that host: a cross-site page
+  cannot open the socket); refused like a wrong token, before any route;
+* every message from the page is parsed strictly (:func:`parse_message`): JSON objects of a
+  known type with exactly its fields, action ids among the buttons, at most
+  :data:`MAX_MESSAGE` bytes; anything else is refused, counted and logged (the first few in
+  full, then one line per thousand), never raised into the run;
+* at most :data:`RATE` messages a second per page (a burst of :data:`BURST`); the rest of a
+  flood is dropped as it arrives, so it neither grows memory nor reaches the run.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import hmac
+import json
+import logging
+import secrets
+import threading
+import time
+from collections import Counter
+from importlib import resources
+from typing import Any
+from urllib.parse import parse_qs
+
+from tlac.errors import ConfigError, require_extra
+
+require_extra("human", "tlac teach (a person as a teacher)", "starlette", "uvicorn")
+
+from starlette.applications import Starlette  # noqa: E402
+from starlette.responses import HTMLResponse, PlainTextResponse, Response  # noqa: E402
+from starlette.routing import Route, WebSocketRoute  # noqa: E402
+from starlette.websockets import WebSocket, WebSocketDisconnect  # noqa: E402
+
+from tlac.human.desk import Desk  # noqa: E402
+
+LOG = logging.getLogger("tlac.human")
+HOST = "127.0.0.1"
+MAX_MESSAGE = 1024
+"""Bytes a message from the page may have (an answer is about 40)."""
+RATE = 30.0
+"""Messages a second a page may send, on average (a person presses far fewer keys)."""
+BURST = 60
+"""Messages a page may send at once before the rate applies."""
+OUTBOX = 256
+"""Messages waiting to go to one page; the oldest progress reports give way first."""
+LOGGED_IN_FULL = 10
+"""Refused messages logged one by one; after them, one line per thousand."""
+
+MESSAGE_FIELDS = {
+    "answer": {"type", "id", "action"},
+    "takeover": {"type", "on"},
+    "here": {"type"},
+}
+
+
+def new_token() -> str:
+    """A random token for the page's URL (128 bits)."""
+    return secrets.token_urlsafe(16)
+
+
+def page_html() -> str:
+    """The page (plain HTML and JavaScript, nothing fetched from elsewhere)."""
+    return resources.files("tlac.human").joinpath("page.html").read_text(encoding="utf-8")
+
+
+def parse_message(text: Any, n_actions: int) -> tuple[dict[str, Any] | None, str]:
+    """A message from the page, checked: ``(message, "")``, or ``(None, why)`` for one that
+    is refused.
+
+    >>> parse_message('{"type": "answer", "id": 3, "action": 1}', 6)
+    ({'type': 'answer', 'id': 3, 'action': 1}, '')
+    >>> parse_message('{"type": "answer", "id": 3, "action": 6}', 6)[1]
+    'action 6 is not one of the 6 actions'
+    >>> parse_message('{"type": "answer", "id": 3, "action": true}', 6)[1]
+    'action must be an integer'
+    """
+    if not isinstance(text, str):
+        return None, "not a text message"
+    if len(text) > MAX_MESSAGE:
+        return None, f"longer than {MAX_MESSAGE} bytes"
+    try:
+        msg = json.loads(text)
+    except (ValueError, RecursionError):
+        return None, "not JSON"
+    if not isinstance(msg, dict):
+        return None, "not a JSON object"
+    kind = msg.get("type")
+    if not isinstance(kind, str) or kind not in MESSAGE_FIELDS:
+        return None, f"unknown type {str(kind)[:20]!r}"
+    if set(msg) != MESSAGE_FIELDS[kind]:
+        return None, f"{kind}: fields {sorted(msg)[:6]} (expected {sorted(MESSAGE_FIELDS[kind])})"
+    if kind == "answer":
+        for key in ("id", "action"):
+            if not isinstance(msg[key], int) or isinstance(msg[key], bool):
+                return None, f"{key} must be an integer"
+        if not 0 <= msg["action"] < n_actions:
+            return None, f"action {msg['action']} is not one of the {n_actions} actions"
+    if kind == "takeover" and not isinstance(msg["on"], bool):
+        return None, "on must be true or false"
+    return msg, ""
+
+
+class Refusals:
+    """Refused requests and messages: counted by reason, logged without a traceback."""
+
+    def __init__(self) -> None:
+        self.counts: Counter[str] = Counter()
+        self.total = 0
+
+    def refuse(self, why: str) -> None:
+        self.total += 1
+        self.counts[why.split(":")[0][:40]] += 1
+        if self.total <= LOGGED_IN_FULL:
+            LOG.warning("tlac teach: refused a message from the page: %s", why)
+        elif self.total % 1000 == 0:
+            LOG.warning("tlac teach: %d messages from the page refused so far", self.total)
+
+
+def _header(scope: dict[str, Any], name: bytes) -> str | None:
+    """The first value of a request header, or None."""
+    for key, value in scope.get("headers") or ():
+        if key.lower() == name:
+            return value.decode("latin-1")
+    return None
+
+
+def allowed_hosts(port: int) -> set[str]:
+    """The ``Host`` headers the page's server answers: the loopback address by number or by
+    name, with the port (without it too for port 80, where browsers leave it out)."""
+    hosts = {f"{HOST}:{port}", f"localhost:{port}"}
+    if port == 80:
+        hosts |= {HOST, "localhost"}
+    return hosts
+
+
+def check_request(scope: dict[str, Any], token: bytes) -> str:
+    """Why an HTTP request or WebSocket handshake is refused, or "" when it is let in: the
+    token, the ``Host`` header, and a handshake's ``Origin``."""
+    kind = scope["type"]
+    query = parse_qs(scope.get("query_string", b"").decode("latin-1"))
+    given = query.get("token", [""])[0].encode("latin-1", "replace")
+    if not hmac.compare_digest(given, token):
+        return f"{kind}: wrong or missing token"
+    server = scope.get("server")
+    port = server[1] if server and len(server) > 1 else None
+    host = _header(scope, b"host")
+    if not isinstance(port, int) or host is None or host.lower() not in allowed_hosts(port):
+        return (
+            f"{kind} Host: {str(host)[:60]!r} is not {HOST}:{port} or localhost:{port} "
+            "(a DNS-rebinding page?)"
+        )
+    origin = _header(scope, b"origin")
+    if kind == "websocket" and origin is not None and origin.lower() != f"http://{host.lower()}":
+        return (
+            f"{kind} Origin: {origin[:60]!r} is not the page's own, http://{host[:60]} "
+            "(a cross-site page?)"
+        )
+    return ""
+
+
+class TokenGate:
+    """ASGI middleware: every HTTP request and WebSocket handshake must carry the token and
+    name the page's own host (and, for a handshake, its origin): :func:`check_request`."""
+
+    def __init__(self, app: Any, token: str, refusals: Refusals):
+        self.app, self.token, self.refusals = app, token.encode(), refusals
+
+    async def __call__(self, scope: dict[str, Any], receive: Any, send: Any) -> None:
+        if scope["type"] in ("http", "websocket"):
+            why = check_request(scope, self.token)
+            if why:
+                self.refusals.refuse(why)
+                if scope["type"] == "http":
+                    reason = "wrong or missing token" if why.endswith("token") else "wrong Host"
+                    await PlainTextResponse(f"forbidden: {reason}", 403)(scope, receive, send)
+                else:  # close before accepting: the handshake is refused (HTTP 403)
+                    message = await receive()
+                    if message["type"] == "websocket.connect":
+                        await send({"type": "websocket.close", "code": 1008})
+                return
+        await self.app(scope, receive, send)
+
+
+class TokenBucket:
+    """At most ``rate`` a second on average, ``burst`` at once."""
+
+    def __init__(self, rate: float = RATE, burst: int = BURST):
+        self.rate, self.burst = rate, float(burst)
+        self.tokens, self.time = float(burst), time.monotonic()
+
+    def take(self) -> bool:
+        now = time.monotonic()
+        self.tokens = min(self.burst, self.tokens + (now - self.time) * self.rate)
+        self.time = now
+        if self.tokens < 1.0:
+            return False
+        self.tokens -= 1.0
+        return True
+
+
+def make_app(desk: Desk, token: str, refusals: Refusals | None = None) -> Any:
+    """The page's ASGI application: ``/`` the page, ``/ws`` its WebSocket; every request
+    through :class:`TokenGate`."""
+    refusals = refusals or Refusals()
+    n_actions = len(desk.action_names)
+
+    async def page(request: Any) -> Response:
+        return HTMLResponse(
+            page_html(),
+            headers={
+                "Cache-Control": "no-store",
+                "Referrer-Policy": "no-referrer",
+                "X-Frame-Options": "DENY",
+                "Content-Security-Policy": "default-src 'none'; img-src data:; "
+                "style-src 'unsafe-inline'; script-src 'unsafe-inline'; connect-src 'self' "
+                "ws://127.0.0.1:* ws://localhost:*; frame-ancestors 'none'",
+            },
+        )
+
+    async def socket(websocket: WebSocket) -> None:
+        await websocket.accept()
+        loop = asyncio.get_running_loop()
+        outbox: asyncio.Queue[dict[str, Any]] = asyncio.Queue()
+
+        def put(message: dict[str, Any]) -> None:
+            if outbox.qsize() >= OUTBOX:  # a page that reads nothing: drop the oldest
+                with contextlib.suppress(asyncio.QueueEmpty):
+                    outbox.get_nowait()
+            outbox.put_nowait(message)
+
+        def send(message: dict[str, Any]) -> None:  # from any thread
+            loop.call_soon_threadsafe(put, message)
+
+        async def sender() -> None:
+            while True:
+                message = await outbox.get()
+                await websocket.send_text(json.dumps(message))
+
+        key = desk.subscribe(send)
+        task = asyncio.create_task(sender())
+        bucket = TokenBucket()
+        try:
+            while True:
+                event = await websocket.receive()
+                if event["type"] == "websocket.disconnect":
+                    break
+                if not bucket.take():
+                    refusals.refuse("flood: over the rate limit")
+                    continue
+                message, why = parse_message(event.get("text"), n_actions)
+                if message is None:
+                    refusals.refuse(why)
+                    continue
+                handle(message)
+        except (WebSocketDisconnect, RuntimeError, OSError):
+            pass
+        finally:
+            desk.unsubscribe(key)
+            task.cancel()
+
+    def handle(message: dict[str, Any]) -> None:
+        kind = message["type"]
+        if kind == "answer":
+            if not desk.answer(message["id"], message["action"]):
+                refusals.refuse(f"answer: question {message['id']} is not pending")
+        elif kind == "takeover":
+            desk.request_takeover(message["on"])
+        else:
+            desk.here()
+
+    app = Starlette(routes=[Route("/", page), WebSocketRoute("/ws", socket)])
+    return TokenGate(app, token, refusals)
+
+
+class PageServer:
+    """uvicorn serving :func:`make_app` in a daemon thread on 127.0.0.1:``port`` (0: a free
+    port). :meth:`start` returns once it listens; :attr:`url` carries the token."""
+
+    def __init__(self, desk: Desk, port: int = 0, token: str | None = None):
+        if not isinstance(port, int) or not 0 <= port <= 65535:
+            raise ConfigError(f"--port must be a port number in [0, 65535], got {port!r}")
+        self.desk, self.port = desk, port
+        self.token = token or new_token()
+        self.refusals = Refusals()
+        self.app = make_app(desk, self.token, self.refusals)
+        self._server: Any = None
+        self._thread: threading.Thread | None = None
+
+    @property
+    def url(self) -> str:
+        return f"http://{HOST}:{self.port}/?token={self.token}"
+
+    def start(self, wait: float = 15.0) -> str:
+        import uvicorn
+
+        config = uvicorn.Config(
+            self.app,
+            host=HOST,
+            port=self.port,
+            log_level="error",
+            access_log=False,
+            lifespan="off",
+            ws_max_size=16 * MAX_MESSAGE,
+        )
+        self._server = uvicorn.Server(config)
+        self._server.install_signal_handlers = lambda: None  # Ctrl-C is the run's (older uvicorn)
+        self._thread = threading.Thread(target=self._serve, name="tlac-teach-page", daemon=True)
+        self._thread.start()
+        deadline = time.monotonic() + wait
+        while not self._server.started:
+            if not self._thread.is_alive() or time.monotonic() > deadline:
+                raise ConfigError(
+                    f"tlac teach: the page's server could not listen on {HOST}:{self.port} "
+                    "(is the port in use? give another with --port, or 0 for a free one)"
+                )
+            time.sleep(0.02)
+        sockets = self._server.servers[0].sockets
+        self.port = int(sockets[0].getsockname()[1])
+        return self.url
+
+    def _serve(self) -> None:
+        with contextlib.suppress(SystemExit):  # uvicorn exits when it cannot bind
+            self._server.run()
+
+    def stop(self) -> None:
+        if self._server is not None:
+            self._server.should_exit = True
+        if self._thread is not None:
+            self._thread.join(timeout=5.0)
