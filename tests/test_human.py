@@ -433,7 +433,7 @@ class ScriptedPerson:
             self.answers += self.desk.answer(message["id"], action)
 
 
-def teach_run(tmp_path: Path, steps: int, takeover: bool = False, person: bool = True):
+def teach_run(tmp_path: Path, steps: int, takeover: bool = False, person: bool = True, **overrides):
     from tlac.human.session import TeachSession, action_names
     from tlac.run import RunSpec, train_run
 
@@ -441,7 +441,7 @@ def teach_run(tmp_path: Path, steps: int, takeover: bool = False, person: bool =
         env="doorkey",
         teachers=["human", "random"],
         steps=steps,
-        overrides={"advice_budget": 300},
+        overrides={"advice_budget": 300, **overrides},
         eval_episodes=2,
     )
     from tlac.domains.doorkey.env import make_doorkey_env
@@ -459,8 +459,13 @@ def teach_run(tmp_path: Path, steps: int, takeover: bool = False, person: bool =
     return result, scripted, session
 
 
-def test_a_run_with_a_scripted_person_writes_its_answers_and_a_take_over(tmp_path):
-    result, person, _ = teach_run(tmp_path, 800, takeover=True)
+@pytest.mark.parametrize("variant", ["graduate", "paper"])
+def test_a_run_with_a_scripted_person_writes_its_answers_and_a_take_over(tmp_path, variant):
+    """The take-over goes through ``model.episode_leader`` (the session), a teacher-led
+    episode in the graduate variant, the high level's choice forced in the paper variant."""
+    result, person, session = teach_run(tmp_path, 800, takeover=True, variant=variant)
+    assert session.model.episode_leader is None  # the closed session took its hook off
+    assert (session.model.solo is None) == (variant == "paper")
     run = tmp_path / "run"
     assert result["finished"] and person.answers > 0
     rows = read_advice(run)

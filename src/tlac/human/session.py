@@ -10,7 +10,8 @@ server, ``advice.csv`` and the take-over wired in (docs/human-teacher.md).
   training runs as without it.
 * Take-over: the person asks to play; the next episode of the first environment is led by
   ``human`` in every state (a teacher-led episode: the graduate variant counts its return as
-  the person's own), and is written to ``human_episodes.csv``.
+  the person's own), and is written to ``human_episodes.csv``. The session is the model's
+  ``episode_leader`` (tlac.two_level.collect.EpisodeLeader, :meth:`TeachSession.lead`).
 * A thread sends the page the run's progress twice a second while a page is open: the step,
   the questions left, the student alone's evaluations and the teachers' shares of the steps.
 """
@@ -114,6 +115,8 @@ class TeachSession:
         self.close()
 
     def close(self) -> None:
+        if self.model is not None and getattr(self.model, "episode_leader", None) is self:
+            self.model.episode_leader = None
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=2.0)
@@ -153,7 +156,7 @@ class TeachSession:
         if new:
             csv.writer(self.episodes).writerow(EPISODE_COLUMNS)
             self.episodes.flush()
-        self._install_takeover(model)
+        model.episode_leader = self  # the take-over (:meth:`lead`); not saved with the model
         self.desk.left = self._left()
         self._thread = threading.Thread(
             target=self._report, name="tlac-teach-progress", daemon=True
@@ -166,34 +169,21 @@ class TeachSession:
 
     # -- take-over -------------------------------------------------------------------------------
 
-    def _install_takeover(self, model: Any) -> None:
-        """Let the person lead an episode of the first environment: the graduate variant's
-        teacher-led episodes where it has them (``model.solo``), else the high level's choice
-        forced to ``human`` in that episode. Set on the objects, not saved in checkpoints."""
-        selector = model.selector
-        choose = selector.select
-
-        def select(logits: Any, episode_starts: Any) -> np.ndarray:
-            choices = choose(logits, episode_starts)
-            self._episode_boundary(np.asarray(episode_starts, dtype=bool))
-            if self.leading and model.solo is None:
-                choices = np.array(choices, copy=True)
-                choices[0] = self.index
-            return choices
-
-        selector.select = select
-        solo = getattr(model, "solo", None)
-        if solo is not None:
-            start = solo.start
-
-            def solo_start(episode_starts: Any, can_lead: Any = None) -> np.ndarray:
-                active = start(episode_starts, can_lead)
-                if self.leading and bool(np.asarray(episode_starts)[0]):
-                    active[0] = False
-                    solo.leader[0] = self.index
-                return active
-
-            solo.start = solo_start
+    def lead(self, episode_starts: np.ndarray) -> np.ndarray | None:
+        """The model's ``episode_leader`` (tlac.two_level.collect.EpisodeLeader), called by
+        TL-AC's collection at every step: the take-over's bookkeeping (its start and end, the
+        person leaving mid-episode), and ``human`` to lead the first environment's episode
+        where a take-over starts now (None elsewhere). TL-AC plays it as a teacher-led
+        episode (the graduate variant counts its return as the person's own), or with the
+        high level's choice forced to ``human`` in every state (the paper variant); with
+        the person gone, the lead stops as any teacher-led episode's does."""
+        starts = np.asarray(episode_starts, dtype=bool)
+        self._episode_boundary(starts)
+        if not (self.leading and len(starts) and starts[0]):
+            return None
+        named = np.full(len(starts), -1, dtype=np.int64)
+        named[0] = self.index
+        return named
 
     def _episode_boundary(self, episode_starts: np.ndarray) -> None:
         if not len(episode_starts) or not episode_starts[0]:

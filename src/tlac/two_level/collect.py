@@ -3,11 +3,13 @@ level picks a teacher or the agent (line 14), the low level samples an action (l
 chosen teacher's action replaces it (line 18), the environments step (line 19) and the
 transition is stored with both levels' log-probabilities (line 20); then the advantages (GAE).
 Limited advice (tlac.algorithms.advice) and the graduate variant's solo and teacher-led
-episodes (tlac.two_level.graduation) decide who may act."""
+episodes (tlac.two_level.graduation) decide who may act; ``model.episode_leader``
+(:class:`EpisodeLeader`, ``tlac teach``'s take-over) may name the teacher that leads an
+episode."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 from stable_baselines3.common.vec_env import unwrap_vec_normalize
@@ -27,6 +29,24 @@ from tlac.two_level.persistence import schedule_progress
 
 if TYPE_CHECKING:
     from tlac.algorithms.callbacks import LearnCallbacks
+
+
+class EpisodeLeader(Protocol):
+    """``model.episode_leader``: who leads the episodes that start, named from outside the
+    run (``tlac teach``: the person takes over, tlac.human.session). None on every model but
+    a ``tlac teach`` run's; set on the live model, never saved in a checkpoint or model file.
+
+    :meth:`lead` is called once at every step of :func:`collect`, after the high level's
+    choice, with ``episode_starts`` ``(E,)`` bool (the caller's own bookkeeping of episode
+    boundaries goes there). It returns ``(E,)`` ints, the teacher that must lead the episode
+    starting now in each environment (-1: none; ignored where no episode starts), or None
+    (none anywhere). The graduate variant plays such an episode as one of its teacher-led
+    episodes (``model.solo``: its return counted as that teacher's own); the paper variant
+    forces the high level's choice to that teacher in every state of it. Either way, under
+    limited advice a leader that cannot answer (absent, out of budget:
+    ``AdviceLedger.can_lead``) stops leading, as any teacher-led episode's does."""
+
+    def lead(self, episode_starts: np.ndarray) -> np.ndarray | None: ...
 
 
 def collect(model: Any, callbacks: LearnCallbacks | None = None) -> Rollout | None:
@@ -93,19 +113,16 @@ def collect(model: Any, callbacks: LearnCallbacks | None = None) -> Rollout | No
                 ro.high_shift[t] = limits.shift()
                 high_logits = priced_logits(high_logits, ro.high_shift[t])
             choices = model.selector.select(mask_logits(high_logits, can), model._episode_starts)
+        named = named_leaders(model)  # the episodes that start led from outside (None: none)
         if model.solo is not None:  # graduate variant: some episodes are the student's alone
-            if limits is not None:  # a teacher whose availability is 0 now: not auditioned
-                model.solo.gone[:] = limits.availability == 0
-            solo = model.solo.start(
-                model._episode_starts, None if limits is None else limits.can_lead()
-            )
-            if limits is not None:
-                limit_leaders(model, limits)
+            solo = start_solo_episodes(model, limits, named)
             choices = np.where(solo, model.n_teachers, choices)
             # ... or one teacher's alone (teacher_episodes): their rows train the high level
             # as its own choices, with their log-probabilities under it
             choices = np.where(model.solo.leader >= 0, model.solo.leader, choices)
             ro.solo[t] = solo
+        elif named is not None:  # paper variant: the teacher named acts in every state
+            choices = lead_episodes(model, named, limits, choices)
         if limits is not None:  # the acting teachers' answers, paid for
             choices, high_mask = charge_acting(model, limits, choices, can)
             ro.askable[t] = limits.present & (asks & labels_from_gate)[:, None]
@@ -210,6 +227,67 @@ def advice_steps_left(model: Any) -> int:
     return max(origin + horizon - model.num_timesteps, 0)
 
 
+def start_solo_episodes(
+    model: Any, limits: AdviceLedger | None, named: np.ndarray | None
+) -> np.ndarray:
+    """The graduate variant's draw for the episodes that start (``model.solo.start``): solo,
+    assisted or led by one teacher; ``named`` (:func:`named_leaders`, None: none) makes an
+    episode a teacher-led one of the teacher it names. Under limited advice, a teacher whose
+    availability is 0 now is not auditioned, and leaders are limited (:func:`limit_leaders`).
+    Returns the per-environment solo flags."""
+    solo = model.solo
+    if limits is not None:
+        solo.gone[:] = limits.availability == 0
+    active = solo.start(model._episode_starts, None if limits is None else limits.can_lead())
+    if named is not None:
+        solo.active[named >= 0] = False
+        solo.leader[named >= 0] = named[named >= 0]
+    if limits is not None:
+        limit_leaders(model, limits)
+    return active
+
+
+def named_leaders(model: Any) -> np.ndarray | None:
+    """``(E,)``: the teacher that ``model.episode_leader`` (:class:`EpisodeLeader`) names to
+    lead each episode starting now (-1: none, and wherever no episode starts); None without
+    an ``episode_leader`` (every run but ``tlac teach``: nothing else is done)."""
+    leader = getattr(model, "episode_leader", None)
+    if leader is None:
+        return None
+    starts = np.asarray(model._episode_starts, dtype=bool)
+    named = leader.lead(starts)
+    if named is None:
+        return np.full(model.n_envs, -1, dtype=np.int64)
+    named = np.where(starts, np.asarray(named, dtype=np.int64).reshape(model.n_envs), -1)
+    if ((named < -1) | (named >= model.n_teachers)).any():
+        raise ValueError(
+            f"episode_leader named {named.tolist()}: teachers are 0..{model.n_teachers - 1}, "
+            "-1 none"
+        )
+    return named
+
+
+def lead_episodes(
+    model: Any, named: np.ndarray, limits: AdviceLedger | None, choices: np.ndarray
+) -> np.ndarray:
+    """The paper variant's episodes led from outside (:class:`EpisodeLeader`): the leader of
+    each episode that starts now is ``named`` (-1: none), kept in ``model._led_by`` until the
+    episode ends or, under limited advice, until it cannot answer; returns ``choices`` with
+    the leaders' in their environments."""
+    starts = np.asarray(model._episode_starts, dtype=bool)
+    model._led_by[starts] = named[starts]
+    if limits is not None:
+        led = np.flatnonzero(model._led_by >= 0)
+        model._led_by[led[~limits.can_lead()[led, model._led_by[led]]]] = -1
+    return np.where(model._led_by >= 0, model._led_by, choices)
+
+
+def episode_leaders(model: Any) -> np.ndarray:
+    """``(E,)``: the teacher leading each environment's episode (-1: none): the graduate
+    variant's teacher-led episodes, else the paper variant's led from outside."""
+    return model.solo.leader if model.solo is not None else model._led_by
+
+
 def limit_leaders(model: Any, limits: AdviceLedger) -> None:
     """Teacher-led episodes under limited advice: once the budget is spent, every episode
     that starts is the student's alone (it is: no teacher is asked again), and a leader
@@ -233,20 +311,20 @@ def charge_acting(
     this step) falls back to the agent, and so does one of a teacher that cannot answer
     (a selector that reads no logits, random or ucb1, may pick it). Returns the choices
     and the teachers each row's high-level choice was made among: those that could answer,
-    and a leader (teacher-led episodes ask their teacher whatever the asking rule says)."""
+    and a leader (teacher-led episodes, :func:`episode_leaders`, ask their teacher whatever
+    the asking rule says)."""
     k = model.n_teachers
     allowed = can.copy()
-    if model.solo is not None:  # a leader still leading (limit_leaders) can answer
-        led = np.flatnonzero(model.solo.leader >= 0)
-        allowed[led, model.solo.leader[led]] = True
+    leaders = episode_leaders(model)  # a leader still leading (limit_leaders) can answer
+    led = np.flatnonzero(leaders >= 0)
+    allowed[led, leaders[led]] = True
     rows = np.arange(len(choices))
     choices = np.where((choices < k) & ~allowed[rows, np.minimum(choices, k - 1)], k, choices)
     granted = limits.charge(acting_teachers(choices, k), acting=True)
     refused = (choices < k) & ~granted.any(axis=1)
     if refused.any():
         choices = np.where(refused, k, choices)
-        if model.solo is not None:
-            model.solo.leader[refused] = -1
+        leaders[refused] = -1
     return choices, can | granted
 
 

@@ -8,7 +8,8 @@ Reading guide: :class:`~tlac.two_level.config.TLACConfig` (the settings, the pap
 5, 8 and 10), :func:`tlac.two_level.collect.collect` (Algorithm 1, lines 11-23),
 :func:`tlac.two_level.update.update` (lines 5-9), :meth:`TLAC.learn` (the outer loop). The
 model holds plain parts: its networks (``model.nets``), optimiser, selector, advice ledger and
-buffer, solo episodes, and what SB3's callbacks read (``model.sb3``).
+buffer, solo episodes, and what SB3's callbacks read (``model.sb3``); ``model.episode_leader``
+(None but in ``tlac teach``) names teachers to lead episodes from outside the run.
 
 >>> from tlac import TLAC
 >>> model = TLAC("doorkey", teachers=["optimal", "random"], seed=0, n_steps=8, batch_size=8)
@@ -177,6 +178,11 @@ class TLAC:
         self.greedy_solo = graduation.plays_solo_greedily(cfg, self.nets.discrete)
         self.solo = graduation.make_solo(cfg, self.n_envs, seed, self.n_teachers)
         self.deployed: StudentSnapshot | None = None  # None: predict uses the live weights
+        # who leads the episodes that start, named from outside the run (tlac teach's
+        # take-over: collect.EpisodeLeader); None but in tlac teach, and never saved. The
+        # paper variant keeps the episodes it leads in _led_by (-1: none)
+        self.episode_leader: collect.EpisodeLeader | None = None
+        self._led_by = np.full(self.n_envs, -1, dtype=np.int64)
         self._ent_coefs = torch.tensor(cfg.entropy_coefs)  # [low, high]
         self._handover = graduation.hands_over(cfg, self.nets.discrete, self.solo)
         self._use_entropy = bool(self._ent_coefs.any()) or self._handover
