@@ -185,3 +185,56 @@ def test_the_replay_plan_is_the_buffers_own_sample_per_minibatch():
         assert torch.equal(plan.information[:, rows], losses.advice_information(sampled))
     plan.draws.finish()
     assert torch.equal(planned.get_state(), plain.get_state())
+
+
+def test_the_entropy_coefficients_once_per_update_are_each_minibatchs(monkeypatch):
+    """update_entropy_coefs: the coefficients the update works out once are those that
+    graduation.entropy_coefs gives before each of its minibatches (the hand-over bonus of a
+    graduate student mid-training included), and the minibatch loss is the same with them."""
+    import gymnasium as gym
+
+    from tlac.two_level import update as update_module
+    from tlac.two_level.graduation import entropy_coefs
+    from tlac.two_level.summary import UpdateLog
+
+    env = gym.make("CartPole-v1")
+    model = TLAC(env, teachers=[lambda obs: int(obs[2] > 0)], seed=0, n_steps=256)
+    model.learn(1024)
+    assert model._use_entropy and model._handover
+    seen = []
+
+    def each_minibatch(*args, **kwargs):
+        given = args[9] if len(args) > 9 else kwargs["ent_coefs"]
+        seen.append((given, entropy_coefs(model._ent_coefs, model.solo, model._handover)))
+        return real(*args, **kwargs)
+
+    real = update_module.minibatch_loss
+    monkeypatch.setattr(update_module, "minibatch_loss", each_minibatch)
+    model.learn(512, reset_num_timesteps=False)
+    assert seen and all(torch.equal(given, plain) for given, plain in seen)
+    assert seen[-1][0][0] > 0  # the hand-over bonus on the low level
+    monkeypatch.undo()
+    ro = model.collect()
+    data, idx = ro.flat(), torch.arange(64)
+    rows = update_module.row_weights(
+        model.config, data, model.n_teachers, model.train_high, True, False, None, False
+    )
+    coefs = fast.update_entropy_coefs(model)
+    plain = update_module.minibatch_loss(model, data, idx, rows, 0.2, None, UpdateLog())[0]
+    hoisted = update_module.minibatch_loss(
+        model, data, idx, rows, 0.2, None, UpdateLog(), ent_coefs=coefs
+    )[0]
+    assert torch.equal(plain, hoisted)
+
+
+def test_the_normalizers_tensors_follow_its_statistics():
+    """Normalizer.obs_torch, its tensors made when first needed, normalises as obs_numpy does
+    after every update of the statistics."""
+    from tlac.algorithms.normalization import Normalizer
+
+    norm = Normalizer(3, 1, gamma=0.99, obs=True, reward=False)
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        norm.update_obs(rng.normal(size=(1, 3)).astype(np.float32))
+        obs = rng.normal(size=(4, 3)).astype(np.float32)
+        assert np.array_equal(norm.obs_torch(torch.from_numpy(obs)).numpy(), norm.obs_numpy(obs))

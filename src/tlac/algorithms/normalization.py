@@ -103,7 +103,9 @@ class Normalizer:
     def _refresh(self) -> None:
         self._mean = self.obs_rms.mean.astype(np.float32)
         self._std = np.sqrt(self.obs_rms.var + EPSILON).astype(np.float32)
-        self._mean_t, self._std_t = torch.from_numpy(self._mean), torch.from_numpy(self._std)
+        # their tensors when obs_torch first needs them (collecting refreshes every step)
+        self._mean_t: torch.Tensor | None = None
+        self._std_t: torch.Tensor | None = None
 
     def update_obs(self, obs: np.ndarray) -> None:
         """Add a batch of raw observations to the statistics (while training only)."""
@@ -119,6 +121,8 @@ class Normalizer:
     def obs_torch(self, obs: torch.Tensor) -> torch.Tensor:
         if not self.normalize_obs:
             return obs
+        if self._mean_t is None or self._std_t is None:
+            self._mean_t, self._std_t = torch.from_numpy(self._mean), torch.from_numpy(self._std)
         return torch.clamp((obs - self._mean_t) / self._std_t, -self.clip, self.clip)
 
     def scale_rewards(self, rewards: np.ndarray, dones: np.ndarray) -> np.ndarray:

@@ -74,7 +74,9 @@ class FrozenObsNormalization:
 class SB3Teacher:
     """A stable-baselines3 model used as a teacher (deterministic actions by default).
     ``normalize_obs``: what the model's ``VecNormalize`` did to its observations, applied to
-    the raw ones before asking it (:func:`from_sb3`), or None."""
+    the raw ones before asking it (:func:`from_sb3`), or None. A greedy PPO / A2C / DQN
+    ``MlpPolicy`` answers through :class:`GreedyPolicy` (the same actions, without the
+    Python overhead of SB3's ``predict``)."""
 
     def __init__(
         self,
@@ -85,12 +87,118 @@ class SB3Teacher:
     ):
         self.model, self.name, self.deterministic = model, name, deterministic
         self.normalize_obs = normalize_obs
+        self.greedy = GreedyPolicy.of(model) if deterministic else None
 
     def predict(self, obs: np.ndarray) -> np.ndarray:
         if self.normalize_obs is not None:
             obs = self.normalize_obs(obs)
+        if self.greedy is not None:
+            actions = self.greedy(obs)
+            if actions is not None:
+                return actions
         actions, _ = self.model.predict(obs, deterministic=self.deterministic)
         return np.asarray(actions)
+
+
+class GreedyPolicy:
+    """``model.predict(obs, deterministic=True)[0]`` of an SB3 PPO / A2C ``MlpPolicy``
+    (Discrete actions, or a Box without squashing or gSDE) or DQN ``MlpPolicy``, computed
+    from its networks directly: the same float32 operations in the same order (features,
+    actor, then PPO's Categorical mode, the argmax of the softmax of its normalised logits;
+    a Gaussian's mean clipped to the box; DQN's argmax of Q), so the same actions, bit for
+    bit, without what SB3's ``predict`` adds per call (setting the training mode of every
+    module, checking the observation's shape, building distribution objects that validate
+    their parameters): ~0.3 ms of Python for one row, the cost of a teacher asked once a
+    step. ``of`` returns None for anything else (another policy class or feature extractor,
+    image or Dict observations, a module whose output depends on the training mode), and a
+    call returns None where SB3's own ``predict`` must answer (an observation that is not a
+    batch of the space's shape; parameters SB3's distributions would refuse, NaN): the
+    caller then asks the model itself."""
+
+    SAFE_MODULES: tuple[str, ...] = (
+        "Linear", "Sequential", "Flatten", "Identity", "Tanh", "ReLU", "LeakyReLU", "ELU",
+        "SELU", "GELU", "SiLU", "Sigmoid", "Softplus", "Mish", "Hardtanh", "ReLU6", "CELU",
+        "FlattenExtractor", "MlpExtractor", "QNetwork", "ActorCriticPolicy", "DQNPolicy",
+    )  # fmt: skip
+    """Module classes (torch.nn's, SB3's, by name within their own package) whose output does
+    not depend on the training mode: no dropout, no batch norm."""
+
+    def __init__(self, policy: Any, kind: str):
+        self.policy, self.kind = policy, kind
+        space = policy.observation_space
+        self.obs_shape = tuple(space.shape)
+        self.action_shape = tuple(policy.action_space.shape)
+        self.box = policy.action_space if kind == "gaussian" else None
+
+    @classmethod
+    def of(cls, model: Any) -> GreedyPolicy | None:
+        """The greedy path of ``model`` (an SB3 model or its policy), or None where it has
+        none (its own ``predict`` answers)."""
+        import gymnasium as gym
+        from stable_baselines3.common import distributions, policies, torch_layers
+        from stable_baselines3.common.preprocessing import is_image_space
+        from stable_baselines3.dqn.policies import DQNPolicy, QNetwork
+
+        policy = getattr(model, "policy", model)
+        obs_space = getattr(policy, "observation_space", None)
+        if not isinstance(obs_space, gym.spaces.Box) or is_image_space(obs_space):
+            return None
+        for module in policy.modules():
+            cls_ = type(module)
+            home = cls_.__module__.split(".")[0]
+            if home not in ("torch", "stable_baselines3") or cls_.__name__ not in cls.SAFE_MODULES:
+                return None
+        kind = None
+        if type(policy) is policies.ActorCriticPolicy:
+            if type(policy.pi_features_extractor) is not torch_layers.FlattenExtractor:
+                return None
+            dist, actions = type(policy.action_dist), policy.action_space
+            if dist is distributions.CategoricalDistribution:
+                kind = "categorical" if isinstance(actions, gym.spaces.Discrete) else None
+            elif dist is distributions.DiagGaussianDistribution and not policy.squash_output:
+                kind = "gaussian" if isinstance(actions, gym.spaces.Box) else None
+        elif (
+            type(policy) is DQNPolicy
+            and type(policy.q_net) is QNetwork
+            and type(policy.q_net.features_extractor) is torch_layers.FlattenExtractor
+        ):
+            kind = "q"
+        return None if kind is None else cls(policy, kind)
+
+    def __call__(self, obs: Any) -> np.ndarray | None:
+        """The greedy actions of a batch ``(n, *obs_shape)``, or None: ask SB3's predict."""
+        import torch
+
+        if not isinstance(obs, np.ndarray) or obs.dtype.kind not in "biuf":
+            return None
+        if obs.ndim != len(self.obs_shape) + 1 or obs.shape[1:] != self.obs_shape or not len(obs):
+            return None
+        policy = self.policy
+        if policy.training:  # as SB3's predict leaves it
+            policy.set_training_mode(False)
+        with torch.no_grad():
+            # obs_to_tensor and preprocess_obs: a copy as a tensor, as float32
+            x = torch.as_tensor(np.array(obs), device=policy.device).float()
+            if self.kind == "q":
+                q_net = policy.q_net
+                actions = q_net.q_net(q_net.features_extractor(x)).argmax(dim=1).reshape(-1)
+            else:
+                latent = policy.mlp_extractor.forward_actor(policy.pi_features_extractor(x))
+                out = policy.action_net(latent)
+                if self.kind == "categorical":  # torch's Categorical(logits=out).probs
+                    logits = out - out.logsumexp(dim=-1, keepdim=True)
+                    if torch.isnan(logits).any():
+                        return None  # Categorical refuses them: SB3's error
+                    actions = torch.argmax(torch.softmax(logits, dim=-1), dim=1)
+                else:  # Normal(out, ones * exp(log_std)).mean
+                    std = torch.ones_like(out) * policy.log_std.exp()
+                    if torch.isnan(out).any() or not bool((std > 0).all()):
+                        return None  # Normal refuses them: SB3's error
+                    actions = out
+        result = actions.cpu().numpy().reshape((-1, *self.action_shape))
+        if self.box is not None:  # SB3's predict clips an unsquashed Box action
+            result = np.clip(result, self.box.low, self.box.high)
+        return result
 
 
 def own_obs_normalization(model: Any, name: str) -> FrozenObsNormalization | None:

@@ -22,6 +22,10 @@ Python and dispatch overhead counts as much as its arithmetic.
 * :class:`ReplayDraws` / :func:`replay_plan`: the imitation term's replayed rows of every
   minibatch drawn, gathered and encoded once per update equal one
   ``AdviceBuffer.sample`` per minibatch: the same rows and the same generator state.
+* :func:`update_entropy_coefs`: the entropy coefficients worked out once per update rather
+  than once per minibatch (graduation.entropy_coefs reads the solo episodes' competence, which
+  no gradient step changes): the same tensor, without a ``torch.tensor`` and the competence's
+  window means per step.
 
 On the CPU a ``_foreach_`` op applies the same kernel to each tensor in turn, so the optimiser
 steps compute exactly what the originals do: same values, bit for bit
@@ -34,7 +38,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import torch
 from stable_baselines3.common.sb2_compat.rmsprop_tf_like import RMSpropTFLike
@@ -429,3 +433,15 @@ def replayed_rows(
         return plan.x[replayed]
     assert nets.net.weights[0] is nets.net._layers[0][0], "a narrowed layer needs planned rows"
     return nets.replay_rows(buffer.obs[plan.draws.idx[replayed]])
+
+
+def update_entropy_coefs(model: Any) -> torch.Tensor | None:
+    """The ``[low, high]`` entropy coefficients of every gradient step of the update about to
+    run, what ``graduation.entropy_coefs`` gives at each of them (the solo episodes change
+    only while collecting); None where the loss has no entropy term (``model._use_entropy``
+    off)."""
+    from tlac.two_level.graduation import entropy_coefs
+
+    if not model._use_entropy:
+        return None
+    return entropy_coefs(model._ent_coefs, model.solo, model._handover)

@@ -131,12 +131,17 @@ def epochs(
     per_level = cfg.update_rule == "per_level"
     running = torch.ones(rows.old_log_probs.shape[0], dtype=torch.bool)  # [low, high]
     heads: Heads | None = None
+    # the entropy coefficients, once: nothing they read (the solo episodes' competence)
+    # changes during an update
+    coefs = fast.update_entropy_coefs(model)
     for _epoch in range(cfg.n_epochs):
         model._n_updates += 1  # epochs begun, as SB3's train/n_updates counts them
         perm = torch.randperm(n, generator=model.generator)
         for start in range(0, n, cfg.batch_size):
             idx = perm[start : start + cfg.batch_size]
-            loss, kls, heads = minibatch_loss(model, data, idx, rows, clip, distill, log, x, replay)
+            loss, kls, heads = minibatch_loss(
+                model, data, idx, rows, clip, distill, log, x, replay, coefs
+            )
             # SB3's rule: stop before a step that moves too far (per level, or all at once)
             too_far = kls > 1.5 * target_kl if target_kl is not None else torch.zeros_like(running)
             if per_level:
@@ -173,11 +178,13 @@ def minibatch_loss(
     log: UpdateLog,
     x: torch.Tensor | None = None,
     replay: fast.ReplayPlan | None = None,
+    ent_coefs: torch.Tensor | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor, Heads]:
     """One minibatch's loss (both levels' clipped surrogates, the critic's error, and the
     graduate variant's terms), each level's approximate KL ``[low, high]``, and the heads it
     used. ``x``: the rollout's rows as ``Networks.heads`` takes them (None: made here);
-    ``replay``: the update's replayed rows (None: planned here, for one minibatch)."""
+    ``replay``: the update's replayed rows (None: planned here, for one minibatch);
+    ``ent_coefs``: the update's entropy coefficients (None: worked out here)."""
     cfg, nets = model.config, model.nets
     if x is None:
         x = nets.update_rows(data["obs"] if nets.normalizer is None else data["net_obs"])
@@ -242,7 +249,9 @@ def minibatch_loss(
         # rare teacher, favoured the likeliest one: 960 of 1,000 answers to one random
         # teacher, results/advice-budget/NOTES.md)
         entropies = nets.mean_entropies(high_logits, low_out, latent, cfg.ent_cap_high or None)
-        coefs = entropy_coefs(model._ent_coefs, model.solo, model._handover)
+        coefs = ent_coefs
+        if coefs is None:
+            coefs = entropy_coefs(model._ent_coefs, model.solo, model._handover)
         loss = loss - (coefs[: len(entropies)] * entropies).sum()
     log.losses_and_kls.append(torch.cat([policy_losses.detach(), vf_loss.detach()[None], kls]))
     log.clip_fractions.append(losses.clip_fractions(log_probs, old, clip, weights))
