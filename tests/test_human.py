@@ -433,20 +433,27 @@ class ScriptedPerson:
             self.answers += self.desk.answer(message["id"], action)
 
 
-def teach_run(tmp_path: Path, steps: int, takeover: bool = False, person: bool = True, **overrides):
+def teach_run(
+    tmp_path: Path,
+    steps: int,
+    takeover: bool = False,
+    person: bool = True,
+    env: str = "doorkey",
+    **overrides,
+):
     from tlac.human.session import TeachSession, action_names
-    from tlac.run import RunSpec, train_run
+    from tlac.run import RunSpec, resolve_run, train_run
 
     spec = RunSpec(
-        env="doorkey",
+        env=env,
         teachers=["human", "random"],
         steps=steps,
         overrides={"advice_budget": 300, **overrides},
         eval_episodes=2,
     )
-    from tlac.domains.doorkey.env import make_doorkey_env
-
-    session = TeachSession(action_names(make_doorkey_env()), serve=False, timeout=5.0)
+    probe = resolve_run(spec).domain.make_env()
+    session = TeachSession(action_names(probe), serve=False, timeout=5.0)
+    probe.close()
     scripted = ScriptedPerson(session.desk)
     if person:
         session.desk.subscribe(scripted)
@@ -499,6 +506,19 @@ def test_with_nobody_at_the_page_the_person_is_never_asked(tmp_path):
     assert result["finished"] and session.desk.stats["asked"] == 0
     assert result["advice"]["teachers"]["human"]["answers"] == 0
     assert read_advice(tmp_path / "run") == []
+
+
+def test_with_nobody_at_the_page_the_audition_ends_without_the_person(tmp_path):
+    """The graduate variant's audition (teacher_episodes, presets/default.yaml) neither waits
+    for the person to lead its episodes nor picks the person to lead one: with nobody at the
+    page it ends, and the random teacher is judged."""
+    result, _, session = teach_run(tmp_path, 1500, person=False, env="CartPole-v1")
+    solo = session.model.solo
+    assert result["finished"] and solo is not None and solo.teacher_share > 0
+    assert not solo.auditioning
+    assert solo.led_counts[0] == 0 and solo.led_counts[1] >= 3
+    assert solo.outside.tolist() == [True, False]
+    assert session.desk.stats["asked"] == 0
 
 
 # -- the command line ------------------------------------------------------------------------

@@ -85,6 +85,8 @@ def collect(model: Any, callbacks: LearnCallbacks | None = None) -> Rollout | No
     # teachers that say when they are there (a person's open tab, a recording's known states)
     outside = outside_teachers(model.teachers) if limits is not None else None
     labels_from = None if outside is None else ~outside[1]
+    if model.solo is not None:  # the audition neither awaits nor picks a person (graduation)
+        model.solo.outside[:] = led_from_outside(outside_teachers(model.teachers))
     for t in range(T):
         if cfg.use_sde and cfg.sde_sample_freq > 0 and t > 0 and t % cfg.sde_sample_freq == 0:
             model.nets.resample_sde_noise()
@@ -203,6 +205,16 @@ def outside_teachers(teachers: list[Any]) -> tuple[list[Any], np.ndarray] | None
     if all(p is None for p in present) and not acting_only.any():
         return None
     return present, acting_only
+
+
+def led_from_outside(outside: tuple[list[Any], np.ndarray] | None) -> np.ndarray | bool:
+    """``(K,)``: the teachers of :func:`outside_teachers` that say when they are there or
+    answer only when they act (a person, a person's recording): they lead an episode only
+    when named from outside (a take-over, :class:`EpisodeLeader`); False where none does."""
+    if outside is None:
+        return False
+    present, acting_only = outside
+    return acting_only | np.array([p is not None for p in present], dtype=bool)
 
 
 def outside_presence(present: list[Any], model: Any, vec_normalize: Any) -> np.ndarray | None:
