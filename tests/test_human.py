@@ -304,6 +304,29 @@ def test_desk_timeout_counts_the_person_absent_and_a_closed_tab_withdraws():
     assert not desk.present()
 
 
+def test_a_tab_closing_between_the_check_and_the_post_does_not_stall_the_run():
+    """The last tab closes after ``ask_many`` saw the person present, before it posts: the
+    check under the lock finds nobody, nothing is posted, and the run does not wait."""
+
+    class Racing(Desk):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            self.checks = 0
+
+        def present(self) -> bool:
+            self.checks += 1
+            if self.checks == 1:  # the check outside the lock: the tab is still open...
+                self.unsubscribe(self.key)  # ... and closes right after it
+                return True
+            return super().present()
+
+    desk = Racing(["a", "b"], timeout=3.0)
+    desk.key = desk.subscribe(lambda message: None)
+    start = time.monotonic()
+    assert desk.ask_many([(None, 0, None)] * 2) == [(None, None)] * 2
+    assert time.monotonic() - start < 1.0 and desk.stats["asked"] == 0
+
+
 def test_human_teacher_without_an_answer_plays_the_students_guess():
     import gymnasium as gym
 
@@ -499,6 +522,41 @@ def test_a_run_with_a_scripted_person_writes_its_answers_and_a_take_over(tmp_pat
     replay = ReplayTeacher(run, gym.spaces.Discrete(6))
     states = np.stack([r["state"] for r in rows])
     assert replay.predict(states).tolist() == [r["action"] for r in rows]
+
+
+@pytest.mark.parametrize("variant", ["graduate", "paper"])
+def test_a_take_over_with_several_environments_is_the_first_ones_episode(tmp_path, variant):
+    """With 2 environments, the take-over's row counts the first environment's steps, reads
+    its own episode's return and row of episodes.csv, and only its answers are ``takeover``
+    (the other environment's questions in the meantime are ``ask``)."""
+    result, _, session = teach_run(tmp_path, 600, takeover=True, variant=variant, n_envs=2)
+    run = tmp_path / "run"
+    assert result["finished"] and session.takeovers >= 1
+    with (run / "human_episodes.csv").open() as f:
+        led = list(csv.DictReader(f))
+    assert led[0]["completed"] == "1"
+    length, episode = int(led[0]["length"]), int(led[0]["episode"])
+    rows = read_advice(run)
+    takeover = [r for r in rows if r["mode"] == "takeover"]
+    assert len(takeover) == length
+    assert [r["step"] for r in takeover] == list(range(0, 2 * length, 2))
+    with (run / "episodes.csv").open() as f:
+        episodes = list(csv.DictReader(f))
+    assert int(episodes[episode - 1]["length"]) == length
+    assert int(episodes[episode - 1]["timestep"]) == int(led[0]["timestep"])
+    assert float(episodes[episode - 1]["return"]) == pytest.approx(float(led[0]["return"]))
+    assert float(led[0]["return"]) > 0
+
+
+@pytest.mark.parametrize("variant", ["graduate", "paper"])
+def test_a_take_over_the_budget_stops_ends_not_completed(tmp_path, variant):
+    """The ledger stops the person's lead when the budget is spent: the take-over ends
+    there (``completed`` 0, the steps the person led), and the page no longer shows it."""
+    _, person, session = teach_run(tmp_path, 200, takeover=True, variant=variant, advice_budget=4)
+    with (tmp_path / "run" / "human_episodes.csv").open() as f:
+        led = list(csv.DictReader(f))
+    assert len(led) == 1 and led[0]["completed"] == "0" and int(led[0]["length"]) == 4
+    assert not session.leading and person.answers == 4
 
 
 def test_with_nobody_at_the_page_the_person_is_never_asked(tmp_path):
