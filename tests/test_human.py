@@ -385,6 +385,24 @@ def test_advice_csv_round_trip_and_the_replay_reproduces_the_answers(tmp_path):
         decode_state("object:1:AAAA")
 
 
+def test_a_resume_keeps_the_answers_asked_before_the_checkpoint_only(tmp_path):
+    """advice.csv's ``step`` is the run's step before the transition: an answer at the
+    checkpoint's step (a rollout's end) was asked in the next rollout, which the resumed run
+    plays again; it is dropped (asked again), where episodes.csv keeps its row at that step
+    (its timestep is the step after the transition)."""
+    from tlac.run import _keep_rows_of_checkpoint
+
+    state = np.zeros(3, dtype=np.uint8)
+    log = AdviceLog(tmp_path / "advice.csv")
+    for step in (126, 127, 128, 129):
+        log.write(step, state, 1, 0.5, "ask")
+    log.close()
+    (tmp_path / "episodes.csv").write_text("timestep,return,length\n127,1,5\n128,1,5\n129,1,5\n")
+    _keep_rows_of_checkpoint(tmp_path, 128)
+    assert [r["step"] for r in read_advice(tmp_path)] == [126, 127]
+    assert (tmp_path / "episodes.csv").read_text().count("\n") == 3  # header, 127, 128
+
+
 def test_replay_teacher_parses_as_a_domain_teacher(tmp_path):
     from tlac.domains import get_domain, make_teachers
     from tlac.errors import ConfigError
