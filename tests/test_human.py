@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from stable_baselines3.common.vec_env import DummyVecEnv
 
 pytest.importorskip("starlette", reason="tlac[human] is not installed")
 pytest.importorskip("uvicorn", reason="tlac[human] is not installed")
@@ -482,7 +483,7 @@ def teach_run(
     env: str = "doorkey",
     **overrides,
 ):
-    from tlac.human.session import TeachSession, action_names
+    from tlac.human.session import TeachSession, action_names, drawn_run
     from tlac.run import RunSpec, resolve_run, train_run
 
     spec = RunSpec(
@@ -492,7 +493,8 @@ def teach_run(
         overrides={"advice_budget": 300, **overrides},
         eval_episodes=2,
     )
-    probe = resolve_run(spec).domain.make_env()
+    run = drawn_run(resolve_run(spec))  # as tlac teach makes it
+    probe = run.domain.make_env()
     session = TeachSession(action_names(probe), serve=False, timeout=5.0)
     probe.close()
     scripted = ScriptedPerson(session.desk)
@@ -502,7 +504,7 @@ def teach_run(
         session.desk.request_takeover(True)
     with session:
         result = train_run(
-            spec, tmp_path / "run", on_model=session.on_model, on_eval=session.on_eval
+            run, tmp_path / "run", on_model=session.on_model, on_eval=session.on_eval
         )
     return result, scripted, session
 
@@ -595,6 +597,47 @@ def test_with_nobody_at_the_page_the_audition_ends_without_the_person(tmp_path):
     assert solo.led_counts[0] == 0 and solo.led_counts[1] >= 3
     assert solo.outside.tolist() == [True, False]
     assert session.desk.stats["asked"] == 0
+
+
+class FramesSeen:
+    """Answers every question with action 0, keeping whether each came with a picture."""
+
+    def __init__(self, desk: Desk):
+        self.desk, self.frames, self.answers = desk, [], 0
+
+    def __call__(self, message: dict) -> None:
+        if message["type"] == "question":
+            self.frames.append(message["frame"])
+            self.answers += self.desk.answer(message["id"], 0)
+
+
+def test_a_gymnasium_ids_question_carries_the_environments_picture(tmp_path):
+    """tlac teach makes a Gymnasium id's environments with render_mode rgb_array: a CartPole
+    question (2 environments: the frame found by the environment's index) has a PNG."""
+    import gymnasium as gym
+
+    from tlac.human.render import Framer
+    from tlac.human.session import drawn_run
+    from tlac.run import RunSpec, resolve_run
+
+    run = drawn_run(resolve_run(RunSpec(env="CartPole-v1", teachers=["human", "random"])))
+    env = run.domain.make_env()
+    assert env.render_mode == "rgb_array"
+    env.close()
+    teacher = HumanTeacher(gym.spaces.Discrete(2))
+    teacher.desk = Desk(["left", "right"], timeout=5.0)
+    seen = FramesSeen(teacher.desk)
+    teacher.desk.subscribe(seen)
+
+    class Model:  # two CartPoles, observations that match no row (as under VecNormalize)
+        env = DummyVecEnv([run.domain.make_env, run.domain.make_env])
+        _last_obs = np.zeros((2, 4), dtype=np.float32)
+
+    Model.env.reset()
+    teacher.framer = Framer(Model())
+    teacher.env_rows = np.array([1])
+    assert teacher.predict(np.ones((1, 4), dtype=np.float32)).tolist() == [0]
+    assert seen.frames and seen.frames[0].startswith("data:image/png;base64,")
 
 
 # -- the command line ------------------------------------------------------------------------
@@ -711,3 +754,61 @@ def test_with_nobody_answering_the_page_costs_at_most_10_percent():
     print(json.dumps(result))
     assert result["asked"] == 0
     assert result["ratio_cpu"] >= 0.9
+
+
+@pytest.mark.slow
+def test_the_page_never_shows_the_previous_questions_picture():
+    """A question without a frame clears the picture and says so, with a short observation's
+    values (headless Chromium)."""
+    pytest.importorskip("selenium", reason="selenium is not installed (pip install 'tlac[dev]')")
+    browser, driver_path = _chromium()
+    if browser is None or driver_path is None:
+        pytest.skip("Debian's chromium and chromium-driver are not installed")
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+    from selenium.webdriver.common.by import By
+
+    from tlac.human.render import data_url
+    from tlac.human.server import PageServer
+    from tlac.teachers.human import encode_state
+
+    desk = Desk(["left", "right"], timeout=20.0)
+    server = PageServer(desk, port=0)
+    url = server.start()
+    options = webdriver.ChromeOptions()
+    options.binary_location = browser
+    for flag in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--disable-gpu"):
+        options.add_argument(flag)
+    driver = webdriver.Chrome(service=Service(driver_path), options=options)
+    try:
+        driver.get(url)
+        wait_for(lambda: desk.connections > 0, 10.0)
+        red = data_url(np.full((4, 4, 3), [255, 0, 0], dtype=np.uint8))
+        for frame, state in ((red, None), (None, encode_state(np.array([0.5, -1.0], np.float32)))):
+            out: list = []
+            thread = threading.Thread(
+                target=lambda f=frame, s=state, o=out: o.extend(desk.ask_many([(f, 0, s)]))
+            )
+            thread.start()
+            wait_for(lambda: len(desk._pending) == 1)
+            qid = next(iter(desk._pending))
+            wait_for(
+                lambda q=qid: (
+                    driver.find_element(By.ID, "frame").get_attribute("data-question") == str(q)
+                ),
+                10.0,
+            )
+            img = driver.find_element(By.ID, "frame")
+            noframe = driver.find_element(By.ID, "noframe")
+            if frame is not None:
+                assert img.get_attribute("src") == red and not noframe.is_displayed()
+            else:
+                assert not img.get_attribute("src") and not img.is_displayed()
+                assert noframe.is_displayed() and "0.500, -1" in noframe.text
+            driver.find_element(By.ID, "action-1").click()
+            thread.join(10)
+            assert out == [(1, pytest.approx(out[0][1]))]
+    finally:
+        driver.quit()
+        server.stop()
+        desk.close()

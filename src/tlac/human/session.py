@@ -61,6 +61,36 @@ def action_names(env: Any) -> list[str]:
     return [f"action {i}" for i in range(n)]
 
 
+def drawn_run(run: Any) -> Any:
+    """``run`` (tlac.run.ResolvedRun) with its environments made to draw themselves
+    (``render_mode="rgb_array"``) where they are a Gymnasium id's that can: the page then
+    shows the state as the environment draws it (tlac.human.render.env_frame). A tlac domain
+    is left as it is (MiniGrid's DoorKey draws its grid whatever its render mode), and so is
+    an id that cannot draw ``rgb_array`` (the page then says it has no picture)."""
+    import dataclasses
+    import functools
+
+    import gymnasium as gym
+
+    from tlac.domains import is_gym_domain
+
+    domain = run.domain
+    make = domain.make_env
+    if not is_gym_domain(domain) or not isinstance(make, functools.partial) or not make.args:
+        return run
+    env_id = make.args[0]
+    try:
+        probe = gym.make(env_id, render_mode="rgb_array")
+    except Exception:  # noqa: BLE001 - an id that cannot draw: no picture, as before
+        return run
+    drawn = getattr(probe, "render_mode", None) == "rgb_array"
+    probe.close()
+    if not drawn:
+        return run
+    make_env = functools.partial(gym.make, env_id, render_mode="rgb_array")
+    return dataclasses.replace(run, domain=dataclasses.replace(domain, make_env=make_env))
+
+
 def find_human(model: Any) -> tuple[int, HumanTeacher] | None:
     """The ``human`` teacher among the model's teachers, with its index."""
     for k, teacher in enumerate(getattr(model, "teachers", None) or []):
