@@ -279,6 +279,28 @@ def test_a_flood_of_10000_messages_is_refused_without_changing_anything(caplog):
     assert not any(r.exc_info for r in caplog.records)
 
 
+def test_a_flood_of_valid_messages_is_cut_to_the_rate_limit():
+    """Valid ``here`` messages, 2,000 at once: the rate limiter, not the parser, refuses the
+    flood; the desk sees at most about BURST + RATE * seconds of them."""
+    from tlac.human.server import BURST, RATE
+
+    desk = Desk(["a", "b"], timeout=30.0)
+    seen: list[float] = []
+    here = desk.here
+    desk.here = lambda: (seen.append(time.monotonic()), here())[1]
+    c, refusals = client(desk)
+    with c.websocket_connect(f"{WS}/ws?token={TOKEN}") as ws:
+        ws.receive_json()
+        start = time.monotonic()
+        message = json.dumps({"type": "here"})
+        for _ in range(2000):
+            ws.send_text(message)
+        wait_for(lambda: len(seen) + refusals.total >= 2000, 60)
+        seconds = time.monotonic() - start
+    assert refusals.counts["flood"] > 0 and refusals.total == 2000 - len(seen)
+    assert len(seen) <= BURST + RATE * seconds + 2
+
+
 # -- the desk ----------------------------------------------------------------------------------
 
 
