@@ -350,6 +350,19 @@ def test_a_tab_closing_between_the_check_and_the_post_does_not_stall_the_run():
     assert time.monotonic() - start < 1.0 and desk.stats["asked"] == 0
 
 
+def test_a_page_whose_server_loop_ended_is_unsubscribed_not_raised():
+    desk = Desk(["a", "b"], timeout=0.05)
+
+    def dead(message: dict) -> None:  # call_soon_threadsafe on a closed loop
+        raise RuntimeError("Event loop is closed")
+
+    desk.subscribe(lambda message: None)
+    key = next(iter(desk._listeners))
+    desk._listeners[key] = dead
+    desk.progress({"step": 1})  # no RuntimeError into the training thread
+    assert desk.connections == 0 and not desk._listeners
+
+
 def test_human_teacher_without_an_answer_plays_the_students_guess():
     import gymnasium as gym
 

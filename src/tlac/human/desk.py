@@ -234,7 +234,12 @@ class Desk:
         self._broadcast({"type": "finished"})
 
     def _broadcast(self, message: dict[str, Any]) -> None:
+        """Hand ``message`` to every page; one that cannot take it any more (its server's
+        loop has ended: RuntimeError) is unsubscribed, never raised into the training."""
         with self._lock:
-            listeners = list(self._listeners.values())
-        for send in listeners:
-            send(message)
+            listeners = list(self._listeners.items())
+        for key, send in listeners:
+            try:
+                send(message)
+            except RuntimeError:
+                self.unsubscribe(key)

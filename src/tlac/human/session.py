@@ -141,7 +141,11 @@ class TeachSession:
         return None if self.server is None else self.server.start()
 
     def __enter__(self) -> TeachSession:
-        self.start()
+        try:
+            self.start()
+        except BaseException:
+            self.close()
+            raise
         return self
 
     def __exit__(self, *exc: Any) -> None:
