@@ -290,9 +290,7 @@ class SoloEpisodes:
             and self.budget > 0
             and (
                 self.solo_episodes < self.min_episodes
-                or bool(
-                    ((self.led_counts < MIN_LED_EPISODES) & ~self.gone & ~self.outside).any()
-                )
+                or bool(((self.led_counts < MIN_LED_EPISODES) & ~self.gone & ~self.outside).any())
             )
         )
 
