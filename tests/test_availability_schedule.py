@@ -119,6 +119,23 @@ def test_a_chance_of_one_draws_nothing():
     assert ledger.rng.bit_generator.state != before
 
 
+def test_a_teacher_whose_chance_comes_back_to_one_returns():
+    """A chance 0 -> 1: absent while 0, present again in the episodes that start after it is
+    back at 1 (with no draw: every chance is 1 then), not in one under way."""
+    ledger = AdviceLedger(
+        np.ones(2), [{"steps": [[0, 1.0], [100, 0.0], [200, 1.0]]}, 1.0], None, n_envs=2, seed=0
+    )
+    ledger.draw_presence(np.array([True, True]), 150)  # a chance of 0 draws
+    assert not ledger.present[:, 0].any()
+    before = ledger.rng.bit_generator.state
+    ledger.draw_presence(np.array([False, False]), 200)  # back at 1, no episode starts
+    assert not ledger.present[:, 0].any()
+    ledger.draw_presence(np.array([True, False]), 201)  # env 0 starts an episode
+    assert ledger.present[:, 0].tolist() == [True, False] and ledger.present[:, 1].all()
+    ledger.draw_presence(np.array([False, True]), 202)
+    assert ledger.present.all() and ledger.rng.bit_generator.state == before
+
+
 def test_the_budget_is_never_exceeded_with_schedules():
     """The property of test_advice's random cases, over chances that change with the step:
     presence follows the chance now (0: never), what is spent never exceeds the budget and is

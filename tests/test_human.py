@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from stable_baselines3.common.vec_env import DummyVecEnv
 
 pytest.importorskip("starlette", reason="tlac[human] is not installed")
 pytest.importorskip("uvicorn", reason="tlac[human] is not installed")
@@ -278,6 +279,28 @@ def test_a_flood_of_10000_messages_is_refused_without_changing_anything(caplog):
     assert not any(r.exc_info for r in caplog.records)
 
 
+def test_a_flood_of_valid_messages_is_cut_to_the_rate_limit():
+    """Valid ``here`` messages, 2,000 at once: the rate limiter, not the parser, refuses the
+    flood; the desk sees at most about BURST + RATE * seconds of them."""
+    from tlac.human.server import BURST, RATE
+
+    desk = Desk(["a", "b"], timeout=30.0)
+    seen: list[float] = []
+    here = desk.here
+    desk.here = lambda: (seen.append(time.monotonic()), here())[1]
+    c, refusals = client(desk)
+    with c.websocket_connect(f"{WS}/ws?token={TOKEN}") as ws:
+        ws.receive_json()
+        start = time.monotonic()
+        message = json.dumps({"type": "here"})
+        for _ in range(2000):
+            ws.send_text(message)
+        wait_for(lambda: len(seen) + refusals.total >= 2000, 60)
+        seconds = time.monotonic() - start
+    assert refusals.counts["flood"] > 0 and refusals.total == 2000 - len(seen)
+    assert len(seen) <= BURST + RATE * seconds + 2
+
+
 # -- the desk ----------------------------------------------------------------------------------
 
 
@@ -302,6 +325,42 @@ def test_desk_timeout_counts_the_person_absent_and_a_closed_tab_withdraws():
     thread.join(5)
     assert answers == [(None, None)] * 3 and time.monotonic() - start < 1.0
     assert not desk.present()
+
+
+def test_a_tab_closing_between_the_check_and_the_post_does_not_stall_the_run():
+    """The last tab closes after ``ask_many`` saw the person present, before it posts: the
+    check under the lock finds nobody, nothing is posted, and the run does not wait."""
+
+    class Racing(Desk):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            self.checks = 0
+
+        def present(self) -> bool:
+            self.checks += 1
+            if self.checks == 1:  # the check outside the lock: the tab is still open...
+                self.unsubscribe(self.key)  # ... and closes right after it
+                return True
+            return super().present()
+
+    desk = Racing(["a", "b"], timeout=3.0)
+    desk.key = desk.subscribe(lambda message: None)
+    start = time.monotonic()
+    assert desk.ask_many([(None, 0, None)] * 2) == [(None, None)] * 2
+    assert time.monotonic() - start < 1.0 and desk.stats["asked"] == 0
+
+
+def test_a_page_whose_server_loop_ended_is_unsubscribed_not_raised():
+    desk = Desk(["a", "b"], timeout=0.05)
+
+    def dead(message: dict) -> None:  # call_soon_threadsafe on a closed loop
+        raise RuntimeError("Event loop is closed")
+
+    desk.subscribe(lambda message: None)
+    key = next(iter(desk._listeners))
+    desk._listeners[key] = dead
+    desk.progress({"step": 1})  # no RuntimeError into the training thread
+    assert desk.connections == 0 and not desk._listeners
 
 
 def test_human_teacher_without_an_answer_plays_the_students_guess():
@@ -360,6 +419,24 @@ def test_advice_csv_round_trip_and_the_replay_reproduces_the_answers(tmp_path):
     assert replay.action_probabilities(unseen).round(3).tolist() == [[0.167] * 6]
     with pytest.raises(ValueError):
         decode_state("object:1:AAAA")
+
+
+def test_a_resume_keeps_the_answers_asked_before_the_checkpoint_only(tmp_path):
+    """advice.csv's ``step`` is the run's step before the transition: an answer at the
+    checkpoint's step (a rollout's end) was asked in the next rollout, which the resumed run
+    plays again; it is dropped (asked again), where episodes.csv keeps its row at that step
+    (its timestep is the step after the transition)."""
+    from tlac.run import _keep_rows_of_checkpoint
+
+    state = np.zeros(3, dtype=np.uint8)
+    log = AdviceLog(tmp_path / "advice.csv")
+    for step in (126, 127, 128, 129):
+        log.write(step, state, 1, 0.5, "ask")
+    log.close()
+    (tmp_path / "episodes.csv").write_text("timestep,return,length\n127,1,5\n128,1,5\n129,1,5\n")
+    _keep_rows_of_checkpoint(tmp_path, 128)
+    assert [r["step"] for r in read_advice(tmp_path)] == [126, 127]
+    assert (tmp_path / "episodes.csv").read_text().count("\n") == 3  # header, 127, 128
 
 
 def test_replay_teacher_parses_as_a_domain_teacher(tmp_path):
@@ -433,20 +510,28 @@ class ScriptedPerson:
             self.answers += self.desk.answer(message["id"], action)
 
 
-def teach_run(tmp_path: Path, steps: int, takeover: bool = False, person: bool = True, **overrides):
-    from tlac.human.session import TeachSession, action_names
-    from tlac.run import RunSpec, train_run
+def teach_run(
+    tmp_path: Path,
+    steps: int,
+    takeover: bool = False,
+    person: bool = True,
+    env: str = "doorkey",
+    **overrides,
+):
+    from tlac.human.session import TeachSession, action_names, drawn_run
+    from tlac.run import RunSpec, resolve_run, train_run
 
     spec = RunSpec(
-        env="doorkey",
+        env=env,
         teachers=["human", "random"],
         steps=steps,
         overrides={"advice_budget": 300, **overrides},
         eval_episodes=2,
     )
-    from tlac.domains.doorkey.env import make_doorkey_env
-
-    session = TeachSession(action_names(make_doorkey_env()), serve=False, timeout=5.0)
+    run = drawn_run(resolve_run(spec))  # as tlac teach makes it
+    probe = run.domain.make_env()
+    session = TeachSession(action_names(probe), serve=False, timeout=5.0)
+    probe.close()
     scripted = ScriptedPerson(session.desk)
     if person:
         session.desk.subscribe(scripted)
@@ -454,7 +539,7 @@ def teach_run(tmp_path: Path, steps: int, takeover: bool = False, person: bool =
         session.desk.request_takeover(True)
     with session:
         result = train_run(
-            spec, tmp_path / "run", on_model=session.on_model, on_eval=session.on_eval
+            run, tmp_path / "run", on_model=session.on_model, on_eval=session.on_eval
         )
     return result, scripted, session
 
@@ -494,11 +579,100 @@ def test_a_run_with_a_scripted_person_writes_its_answers_and_a_take_over(tmp_pat
     assert replay.predict(states).tolist() == [r["action"] for r in rows]
 
 
+@pytest.mark.parametrize("variant", ["graduate", "paper"])
+def test_a_take_over_with_several_environments_is_the_first_ones_episode(tmp_path, variant):
+    """With 2 environments, the take-over's row counts the first environment's steps, reads
+    its own episode's return and row of episodes.csv, and only its answers are ``takeover``
+    (the other environment's questions in the meantime are ``ask``)."""
+    result, _, session = teach_run(tmp_path, 600, takeover=True, variant=variant, n_envs=2)
+    run = tmp_path / "run"
+    assert result["finished"] and session.takeovers >= 1
+    with (run / "human_episodes.csv").open() as f:
+        led = list(csv.DictReader(f))
+    assert led[0]["completed"] == "1"
+    length, episode = int(led[0]["length"]), int(led[0]["episode"])
+    rows = read_advice(run)
+    takeover = [r for r in rows if r["mode"] == "takeover"]
+    assert len(takeover) == length
+    assert [r["step"] for r in takeover] == list(range(0, 2 * length, 2))
+    with (run / "episodes.csv").open() as f:
+        episodes = list(csv.DictReader(f))
+    assert int(episodes[episode - 1]["length"]) == length
+    assert int(episodes[episode - 1]["timestep"]) == int(led[0]["timestep"])
+    assert float(episodes[episode - 1]["return"]) == pytest.approx(float(led[0]["return"]))
+    assert float(led[0]["return"]) > 0
+
+
+@pytest.mark.parametrize("variant", ["graduate", "paper"])
+def test_a_take_over_the_budget_stops_ends_not_completed(tmp_path, variant):
+    """The ledger stops the person's lead when the budget is spent: the take-over ends
+    there (``completed`` 0, the steps the person led), and the page no longer shows it."""
+    _, person, session = teach_run(tmp_path, 200, takeover=True, variant=variant, advice_budget=4)
+    with (tmp_path / "run" / "human_episodes.csv").open() as f:
+        led = list(csv.DictReader(f))
+    assert len(led) == 1 and led[0]["completed"] == "0" and int(led[0]["length"]) == 4
+    assert not session.leading and person.answers == 4
+
+
 def test_with_nobody_at_the_page_the_person_is_never_asked(tmp_path):
     result, _, session = teach_run(tmp_path, 300, person=False)
     assert result["finished"] and session.desk.stats["asked"] == 0
     assert result["advice"]["teachers"]["human"]["answers"] == 0
     assert read_advice(tmp_path / "run") == []
+
+
+def test_with_nobody_at_the_page_the_audition_ends_without_the_person(tmp_path):
+    """The graduate variant's audition (teacher_episodes, presets/default.yaml) neither waits
+    for the person to lead its episodes nor picks the person to lead one: with nobody at the
+    page it ends, and the random teacher is judged."""
+    result, _, session = teach_run(tmp_path, 1500, person=False, env="CartPole-v1")
+    solo = session.model.solo
+    assert result["finished"] and solo is not None and solo.teacher_share > 0
+    assert not solo.auditioning
+    assert solo.led_counts[0] == 0 and solo.led_counts[1] >= 3
+    assert solo.outside.tolist() == [True, False]
+    assert session.desk.stats["asked"] == 0
+
+
+class FramesSeen:
+    """Answers every question with action 0, keeping whether each came with a picture."""
+
+    def __init__(self, desk: Desk):
+        self.desk, self.frames, self.answers = desk, [], 0
+
+    def __call__(self, message: dict) -> None:
+        if message["type"] == "question":
+            self.frames.append(message["frame"])
+            self.answers += self.desk.answer(message["id"], 0)
+
+
+def test_a_gymnasium_ids_question_carries_the_environments_picture(tmp_path):
+    """tlac teach makes a Gymnasium id's environments with render_mode rgb_array: a CartPole
+    question (2 environments: the frame found by the environment's index) has a PNG."""
+    import gymnasium as gym
+
+    from tlac.human.render import Framer
+    from tlac.human.session import drawn_run
+    from tlac.run import RunSpec, resolve_run
+
+    run = drawn_run(resolve_run(RunSpec(env="CartPole-v1", teachers=["human", "random"])))
+    env = run.domain.make_env()
+    assert env.render_mode == "rgb_array"
+    env.close()
+    teacher = HumanTeacher(gym.spaces.Discrete(2))
+    teacher.desk = Desk(["left", "right"], timeout=5.0)
+    seen = FramesSeen(teacher.desk)
+    teacher.desk.subscribe(seen)
+
+    class Model:  # two CartPoles, observations that match no row (as under VecNormalize)
+        env = DummyVecEnv([run.domain.make_env, run.domain.make_env])
+        _last_obs = np.zeros((2, 4), dtype=np.float32)
+
+    Model.env.reset()
+    teacher.framer = Framer(Model())
+    teacher.env_rows = np.array([1])
+    assert teacher.predict(np.ones((1, 4), dtype=np.float32)).tolist() == [0]
+    assert seen.frames and seen.frames[0].startswith("data:image/png;base64,")
 
 
 # -- the command line ------------------------------------------------------------------------
@@ -615,3 +789,61 @@ def test_with_nobody_answering_the_page_costs_at_most_10_percent():
     print(json.dumps(result))
     assert result["asked"] == 0
     assert result["ratio_cpu"] >= 0.9
+
+
+@pytest.mark.slow
+def test_the_page_never_shows_the_previous_questions_picture():
+    """A question without a frame clears the picture and says so, with a short observation's
+    values (headless Chromium)."""
+    pytest.importorskip("selenium", reason="selenium is not installed (pip install 'tlac[dev]')")
+    browser, driver_path = _chromium()
+    if browser is None or driver_path is None:
+        pytest.skip("Debian's chromium and chromium-driver are not installed")
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+    from selenium.webdriver.common.by import By
+
+    from tlac.human.render import data_url
+    from tlac.human.server import PageServer
+    from tlac.teachers.human import encode_state
+
+    desk = Desk(["left", "right"], timeout=20.0)
+    server = PageServer(desk, port=0)
+    url = server.start()
+    options = webdriver.ChromeOptions()
+    options.binary_location = browser
+    for flag in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--disable-gpu"):
+        options.add_argument(flag)
+    driver = webdriver.Chrome(service=Service(driver_path), options=options)
+    try:
+        driver.get(url)
+        wait_for(lambda: desk.connections > 0, 10.0)
+        red = data_url(np.full((4, 4, 3), [255, 0, 0], dtype=np.uint8))
+        for frame, state in ((red, None), (None, encode_state(np.array([0.5, -1.0], np.float32)))):
+            out: list = []
+            thread = threading.Thread(
+                target=lambda f=frame, s=state, o=out: o.extend(desk.ask_many([(f, 0, s)]))
+            )
+            thread.start()
+            wait_for(lambda: len(desk._pending) == 1)
+            qid = next(iter(desk._pending))
+            wait_for(
+                lambda q=qid: (
+                    driver.find_element(By.ID, "frame").get_attribute("data-question") == str(q)
+                ),
+                10.0,
+            )
+            img = driver.find_element(By.ID, "frame")
+            noframe = driver.find_element(By.ID, "noframe")
+            if frame is not None:
+                assert img.get_attribute("src") == red and not noframe.is_displayed()
+            else:
+                assert not img.get_attribute("src") and not img.is_displayed()
+                assert noframe.is_displayed() and "0.500, -1" in noframe.text
+            driver.find_element(By.ID, "action-1").click()
+            thread.join(10)
+            assert out == [(1, pytest.approx(out[0][1]))]
+    finally:
+        driver.quit()
+        server.stop()
+        desk.close()

@@ -252,6 +252,11 @@ class EpisodeRecorder(VecEnvWrapper):
         self.episode_returns: deque[float] = deque(maxlen=window)
         self.episode_lengths: deque[int] = deque(maxlen=window)
         self.episodes_done = 0
+        # per environment: its last finished episode's return, its number among all the
+        # episodes (1-based: its row in episodes.csv) and the step it ended at (0, NaN: none)
+        self.last_return = np.full(self.num_envs, np.nan)
+        self.last_episode = np.zeros(self.num_envs, dtype=np.int64)
+        self.last_end = np.zeros(self.num_envs, dtype=np.int64)
         self._returns = np.zeros(self.num_envs)
         self._lengths = np.zeros(self.num_envs, dtype=np.int64)
         self._files: list[Any] = []
@@ -300,12 +305,18 @@ class EpisodeRecorder(VecEnvWrapper):
             self.episode_returns.append(ret)
             self.episode_lengths.append(length)
             self.episodes_done += 1
+            end = self.num_timesteps - self.num_envs + i + 1
+            self.last_return[i], self.last_episode[i], self.last_end[i] = (
+                ret,
+                self.episodes_done,
+                end,
+            )
             infos[i] = dict(infos[i])
             elapsed = round(time.time() - self._t_start, 6)  # as SB3's Monitor
             infos[i]["episode"] = {"r": ret, "l": length, "t": elapsed}
             if self._writer is not None:
                 # the step at which this episode ended, counted over all environments
-                self._writer.writerow([self.num_timesteps - self.num_envs + i + 1, ret, length])
+                self._writer.writerow([end, ret, length])
                 self._monitor.writerow([ret, length, elapsed])
             self._returns[i] = 0.0
             self._lengths[i] = 0

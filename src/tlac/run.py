@@ -582,6 +582,23 @@ def _keep_rows_until(path: Path, last_step: int) -> None:
     os.replace(tmp, path)
 
 
+def _keep_rows_of_checkpoint(out: Path, num_timesteps: int) -> None:
+    """A resumed run's records as they were at its checkpoint, taken at ``num_timesteps``
+    (a rollout's end): the rows at that step or before, but ``advice.csv``'s before it only
+    (its ``step`` is the run's step before the transition the answer acted in: an answer at
+    ``num_timesteps`` was asked in the rollout after the checkpoint, and is asked again)."""
+    for name in (
+        "episodes.csv",
+        "eval.csv",
+        "progress.csv",
+        "teacher_usage.csv",
+        "human_episodes.csv",
+    ):
+        _keep_rows_until(out / name, num_timesteps)
+    _keep_rows_until(out / "advice.csv", num_timesteps - 1)
+    _keep_monitor_rows(out / MONITOR_FILE, out / "episodes.csv")
+
+
 def _keep_monitor_rows(monitor: Path, episodes: Path) -> None:
     """Keep as many episode rows in ``monitor.csv`` (two header lines) as ``episodes.csv``
     (one header line) has: the two files hold the same episodes, in the same order."""
@@ -608,16 +625,7 @@ def _train_locked(
     spec, domain, hp = run.spec, run.domain, run.hyperparameters
     resume = meta is not None
     if meta is not None:
-        for name in (
-            "episodes.csv",
-            "eval.csv",
-            "progress.csv",
-            "teacher_usage.csv",
-            "advice.csv",
-            "human_episodes.csv",
-        ):
-            _keep_rows_until(out / name, int(meta["num_timesteps"]))
-        _keep_monitor_rows(out / MONITOR_FILE, out / "episodes.csv")
+        _keep_rows_of_checkpoint(out, int(meta["num_timesteps"]))
     else:
         meta = {}
         _clear_run_folder(out)

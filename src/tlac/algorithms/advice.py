@@ -481,7 +481,8 @@ class AdviceLedger:
         self, episode_starts: np.ndarray, step: int | None = None, progress_remaining: float = 1.0
     ) -> None:
         """Draw which teachers are present in the episodes that start now, each with its
-        availability; no draw while every teacher's chance is 1 (a constant 1 never draws).
+        availability; no draw while every teacher's chance is 1 (a constant 1 never draws), and
+        then every teacher is present in them (one whose chance came back to 1 returns).
         A scheduled teacher's chance is taken at ``step``, the environment step now, and
         ``progress_remaining`` (:meth:`set_availability`; ``step`` None: as last set), at every
         step: one whose chance is 0 has left, and is absent at once, in the episodes under way
@@ -493,6 +494,10 @@ class AdviceLedger:
         if len(starting) and (self.availability < 1).any():
             draws = self.rng.random((len(starting), len(self.availability)))
             self.present[starting] = draws < self.availability
+        elif len(starting):
+            # every chance is 1: no draw (the stream holds), but a teacher whose chance came
+            # back to 1 after a 0 is present again in the episodes that start now
+            self.present[starting] = True
 
     def affordable(self) -> np.ndarray:
         """``(K,)``: the teachers whose next answer fits in the budget left."""

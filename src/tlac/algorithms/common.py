@@ -137,14 +137,21 @@ def query_teachers(
     obs: np.ndarray,
     action_space: gym.Space,
     out: np.ndarray,
+    envs: bool = False,
 ) -> None:
     """Write into ``out[i]`` the advice of teacher ``choices[i]`` for every row whose choice
-    is a teacher (``< len(teachers)``); each teacher is asked once, on its rows only."""
+    is a teacher (``< len(teachers)``); each teacher is asked once, on its rows only.
+    ``envs``: row ``i`` is the training environment ``i`` (TL-AC's collection); a teacher
+    with an ``env_rows`` attribute (a person: tlac.teachers.human) is told, before it is
+    asked, the environments its rows are (None where they are not training environments)."""
     for k in set(choices.tolist()):
         if k >= len(teachers):
             continue  # the agent's own action stays
         rows = np.flatnonzero(choices == k)
         teacher = teachers[k]
+        inner = getattr(teacher, "teacher", teacher)
+        if hasattr(inner, "env_rows"):
+            inner.env_rows = rows if envs else None
         out[rows] = ask_teacher(teacher, take_rows(obs, rows), action_space)
 
 

@@ -74,7 +74,9 @@ def _cmd_teach(args: argparse.Namespace) -> int:
             f"tlac teach: {args.env} has {probe.action_space} actions; a person answers with "
             "buttons, one per action: Discrete actions only"
         )
-    from tlac.human.session import TeachSession, action_names
+    from tlac.human.session import TeachSession, action_names, drawn_run
+
+    run = drawn_run(run)  # a Gymnasium id's environments draw the page's picture
 
     names = action_names(probe)
     probe.close()

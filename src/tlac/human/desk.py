@@ -167,21 +167,30 @@ class Desk:
         return self.ask_many([(frame, guess, state)], mode)[0]
 
     def ask_many(
-        self, questions: list[tuple[str | None, int | None, str | None]], mode: str = "ask"
+        self,
+        questions: list[tuple[str | None, int | None, str | None]],
+        mode: str | list[str] = "ask",
     ) -> list[tuple[int | None, float | None]]:
         """Post ``questions`` (``(frame, guess, state)`` each: the frame's data URL, the
-        student's guess, the observation as text) at once and wait for their answers,
+        student's guess, the observation as text; ``mode``: theirs, or one per question) at
+        once and wait for their answers,
         ``timeout`` seconds in all; ``(None, None)`` for each one not answered: no page open,
         the queue full, the time out (the person then counts as away) or the tab closed."""
         if not self.present():
             return [(None, None)] * len(questions)
         posted: list[Question | None] = []
         with self._lock:
-            for frame, guess, state in questions:
+            # again under the lock: a last tab closed since withdraws nothing posted after it
+            # (:meth:`unsubscribe` clears what is pending under this lock), so nothing is
+            # posted to nobody and waited for until the timeout
+            if not self.present():
+                return [(None, None)] * len(questions)
+            modes = [mode] * len(questions) if isinstance(mode, str) else list(mode)
+            for (frame, guess, state), kind in zip(questions, modes, strict=True):
                 if len(self._pending) >= self.max_pending:
                     posted.append(None)
                     continue
-                q = Question(next(self._ids), frame, guess, mode, state)
+                q = Question(next(self._ids), frame, guess, kind, state)
                 self._pending[q.id] = q
                 posted.append(q)
                 self.stats["asked"] += 1
@@ -225,7 +234,12 @@ class Desk:
         self._broadcast({"type": "finished"})
 
     def _broadcast(self, message: dict[str, Any]) -> None:
+        """Hand ``message`` to every page; one that cannot take it any more (its server's
+        loop has ended: RuntimeError) is unsubscribed, never raised into the training."""
         with self._lock:
-            listeners = list(self._listeners.values())
-        for send in listeners:
-            send(message)
+            listeners = list(self._listeners.items())
+        for key, send in listeners:
+            try:
+                send(message)
+            except RuntimeError:
+                self.unsubscribe(key)

@@ -75,16 +75,19 @@ def vec_envs(venv: Any) -> list[Any] | None:
 
 
 class Framer:
-    """The frame of the training environment whose current observation is ``obs`` (the
-    teacher asked sees the environments' last observations: the row is found by its bytes)."""
+    """The frame of a training environment: the one numbered ``env`` where the teacher asked
+    knows it (TL-AC's collection says: ``env_rows``), else the one whose current observation
+    is ``obs`` (found by its bytes; none under a VecNormalize, whose observations differ)."""
 
     def __init__(self, model: Any):
         self.model = model
         self.envs = vec_envs(model.env)
 
-    def frame(self, obs: np.ndarray) -> str | None:
+    def frame(self, obs: np.ndarray, env: int | None = None) -> str | None:
         if not self.envs:
             return None
+        if env is not None and 0 <= env < len(self.envs):
+            return data_url(env_frame(self.envs[env]))
         last = getattr(self.model, "_last_obs", None)
         if isinstance(last, np.ndarray) and len(last) == len(self.envs):
             row = np.asarray(obs).reshape(-1)

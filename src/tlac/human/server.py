@@ -320,6 +320,7 @@ class PageServer:
         deadline = time.monotonic() + wait
         while not self._server.started:
             if not self._thread.is_alive() or time.monotonic() > deadline:
+                self.stop()  # no server thread outlives the refusal
                 raise ConfigError(
                     f"tlac teach: the page's server could not listen on {HOST}:{self.port} "
                     "(is the port in use? give another with --port, or 0 for a free one)"

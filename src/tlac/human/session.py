@@ -29,7 +29,9 @@ import numpy as np
 from tlac.errors import ConfigError
 from tlac.human.desk import Desk
 from tlac.human.render import Framer
+from tlac.recording import find_episode_recorder
 from tlac.teachers.human import ADVICE_FILE, AdviceLog, HumanTeacher
+from tlac.two_level.collect import episode_leaders
 
 EPISODES_FILE = "human_episodes.csv"
 EPISODE_COLUMNS = ("timestep", "start_step", "length", "return", "episode", "led_by", "completed")
@@ -57,6 +59,36 @@ def action_names(env: Any) -> list[str]:
             names = [actions(i).name for i in range(n)]
             return names
     return [f"action {i}" for i in range(n)]
+
+
+def drawn_run(run: Any) -> Any:
+    """``run`` (tlac.run.ResolvedRun) with its environments made to draw themselves
+    (``render_mode="rgb_array"``) where they are a Gymnasium id's that can: the page then
+    shows the state as the environment draws it (tlac.human.render.env_frame). A tlac domain
+    is left as it is (MiniGrid's DoorKey draws its grid whatever its render mode), and so is
+    an id that cannot draw ``rgb_array`` (the page then says it has no picture)."""
+    import dataclasses
+    import functools
+
+    import gymnasium as gym
+
+    from tlac.domains import is_gym_domain
+
+    domain = run.domain
+    make = domain.make_env
+    if not is_gym_domain(domain) or not isinstance(make, functools.partial) or not make.args:
+        return run
+    env_id = make.args[0]
+    try:
+        probe = gym.make(env_id, render_mode="rgb_array")
+    except Exception:  # noqa: BLE001 - an id that cannot draw: no picture, as before
+        return run
+    drawn = getattr(probe, "render_mode", None) == "rgb_array"
+    probe.close()
+    if not drawn:
+        return run
+    make_env = functools.partial(gym.make, env_id, render_mode="rgb_array")
+    return dataclasses.replace(run, domain=dataclasses.replace(domain, make_env=make_env))
 
 
 def find_human(model: Any) -> tuple[int, HumanTeacher] | None:
@@ -97,6 +129,7 @@ class TeachSession:
         self._last_sample: tuple[int, np.ndarray] | None = None
         self.leading = False
         self.lead_start = 0
+        self.lead_steps = 0
         self.takeovers = 0
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -108,7 +141,11 @@ class TeachSession:
         return None if self.server is None else self.server.start()
 
     def __enter__(self) -> TeachSession:
-        self.start()
+        try:
+            self.start()
+        except BaseException:
+            self.close()
+            raise
         return self
 
     def __exit__(self, *exc: Any) -> None:
@@ -172,12 +209,18 @@ class TeachSession:
     def lead(self, episode_starts: np.ndarray) -> np.ndarray | None:
         """The model's ``episode_leader`` (tlac.two_level.collect.EpisodeLeader), called by
         TL-AC's collection at every step: the take-over's bookkeeping (its start and end, the
-        person leaving mid-episode), and ``human`` to lead the first environment's episode
-        where a take-over starts now (None elsewhere). TL-AC plays it as a teacher-led
-        episode (the graduate variant counts its return as the person's own), or with the
-        high level's choice forced to ``human`` in every state (the paper variant); with
-        the person gone, the lead stops as any teacher-led episode's does."""
+        lead stopped by the person leaving or the budget), and ``human`` to lead the first
+        environment's episode where a take-over starts now (None elsewhere). TL-AC plays it
+        as a teacher-led episode (the graduate variant counts its return as the person's
+        own), or with the high level's choice forced to ``human`` in every state (the paper
+        variant); with the person gone or the budget spent, the lead stops as any
+        teacher-led episode's does, and so does the take-over (``completed`` 0)."""
         starts = np.asarray(episode_starts, dtype=bool)
+        if self.leading:  # the step just played: the person's, or the lead has stopped
+            if episode_leaders(self.model)[0] == self.index:
+                self.lead_steps += 1
+            else:
+                self._end_takeover(completed=False)
         self._episode_boundary(starts)
         if not (self.leading and len(starts) and starts[0]):
             return None
@@ -195,31 +238,30 @@ class TeachSession:
         if self.desk.takeover_wanted and self.desk.present():
             self.leading = True
             self.lead_start = int(self.model.num_timesteps)
+            self.lead_steps = 0
             assert self.teacher is not None
-            self.teacher.mode = "takeover"
+            self.teacher.takeover_env = 0
             self.desk.request_takeover(False)  # one episode per request
 
     def _end_takeover(self, completed: bool) -> None:
+        """A row of ``human_episodes.csv``: ``timestep`` the step the episode ended at (as
+        ``episodes.csv`` counts it; where the lead stopped before, the run's step then),
+        ``start_step`` the run's step at its start, ``length`` the steps the person led (the
+        first environment's), ``return`` and ``episode`` (its row in ``episodes.csv``) of the
+        first environment's episode where it was played to its end (NaN, -1 otherwise)."""
         assert self.teacher is not None
         self.leading = False
-        self.teacher.mode = "ask"
-        model = self.model
-        step = int(model.num_timesteps)
-        venv = model.env
-        returns = getattr(venv, "episode_returns", None)
-        ret = float(returns[-1]) if completed and returns else float("nan")
-        episode = int(getattr(venv, "episodes_done", 0)) if completed else -1
+        self.teacher.takeover_env = None
+        step = int(self.model.num_timesteps)
+        ret, episode = float("nan"), -1
+        recorder = find_episode_recorder(self.model.env)
+        if completed and recorder is not None and recorder.last_episode[0] > 0:
+            ret = float(recorder.last_return[0])
+            episode = int(recorder.last_episode[0])
+            step = int(recorder.last_end[0])
         if self.episodes is not None:
             csv.writer(self.episodes).writerow(
-                [
-                    step,
-                    self.lead_start,
-                    step - self.lead_start,
-                    ret,
-                    episode,
-                    "human",
-                    int(completed),
-                ]
+                [step, self.lead_start, self.lead_steps, ret, episode, "human", int(completed)]
             )
             self.episodes.flush()
         self.takeovers += 1

@@ -144,7 +144,12 @@ class HumanTeacher:
         self.framer: Any = None  # obs row -> the frame's data URL
         self.log: AdviceLog | None = None
         self.step: Any = lambda: 0  # the run's step now
-        self.mode = "ask"
+        # the training environments the rows asked now are (set before each question by
+        # TL-AC's collection: tlac.algorithms.common.query_teachers; None: not known)
+        self.env_rows: np.ndarray | None = None
+        # the environment whose rows are the person's take-over (the session sets it while
+        # the person leads; None: none): its answers are written with mode ``takeover``
+        self.takeover_env: int | None = None
         self.answers: dict[bytes, int] = {}
 
     def presence(self, obs: Any) -> np.ndarray:
@@ -163,13 +168,21 @@ class HumanTeacher:
         if self.desk is None:
             return out
         start = int(self.action_space.start)
-        frames = [None if self.framer is None else self.framer.frame(o) for o in obs]
+        envs: list[int | None] = [None] * len(obs)
+        if self.env_rows is not None and len(self.env_rows) == len(obs):
+            envs = [int(e) for e in self.env_rows]
+        self.env_rows = None  # for this question only
+        frames = [
+            None if self.framer is None else self.framer.frame(o, e)
+            for o, e in zip(obs, envs, strict=True)
+        ]
+        modes = ["takeover" if e is not None and e == self.takeover_env else "ask" for e in envs]
         asked = self.desk.ask_many(
             [
                 (f, int(g) - start, encode_state(o))
                 for f, g, o in zip(frames, out, obs, strict=True)
             ],
-            self.mode,
+            modes,
         )
         for i, (action, seconds) in enumerate(asked):
             if action is None:
@@ -177,7 +190,7 @@ class HumanTeacher:
             out[i] = action + start
             self.answers[state_key(obs[i])] = int(out[i])
             if self.log is not None:
-                self.log.write(self.step(), obs[i], int(out[i]), seconds, self.mode)
+                self.log.write(self.step(), obs[i], int(out[i]), seconds, modes[i])
         return out
 
     def action_probabilities(self, obs: Any) -> np.ndarray:

@@ -85,6 +85,7 @@ def collect(model: Any, callbacks: LearnCallbacks | None = None) -> Rollout | No
     # teachers that say when they are there (a person's open tab, a recording's known states)
     outside = outside_teachers(model.teachers) if limits is not None else None
     labels_from = None if outside is None else ~outside[1]
+    mark_outside_leaders(model)  # the audition neither awaits nor picks a person
     for t in range(T):
         if cfg.use_sde and cfg.sde_sample_freq > 0 and t > 0 and t % cfg.sde_sample_freq == 0:
             model.nets.resample_sde_noise()
@@ -138,7 +139,7 @@ def collect(model: Any, callbacks: LearnCallbacks | None = None) -> Rollout | No
         teacher_obs = model._last_obs if vec_normalize is None else original_obs(vec_normalize)
         own = actions.copy() if ro.corrected is not None else None  # the student's intent
         # line 18: the chosen teacher's action in place of the agent's (asked where chosen)
-        query_teachers(model.teachers, choices, teacher_obs, model.action_space, actions)
+        query_teachers(model.teachers, choices, teacher_obs, model.action_space, actions, True)
         if own is not None:  # mistake correcting: the teacher checked the student's action
             ro.corrected[t] = corrected_rows(choices, own, actions, model.n_teachers)
 
@@ -203,6 +204,23 @@ def outside_teachers(teachers: list[Any]) -> tuple[list[Any], np.ndarray] | None
     if all(p is None for p in present) and not acting_only.any():
         return None
     return present, acting_only
+
+
+def led_from_outside(outside: tuple[list[Any], np.ndarray] | None) -> np.ndarray | bool:
+    """``(K,)``: the teachers of :func:`outside_teachers` that say when they are there or
+    answer only when they act (a person, a person's recording): they lead an episode only
+    when named from outside (a take-over, :class:`EpisodeLeader`); False where none does."""
+    if outside is None:
+        return False
+    present, acting_only = outside
+    return acting_only | np.array([p is not None for p in present], dtype=bool)
+
+
+def mark_outside_leaders(model: Any) -> None:
+    """The graduate variant: tell ``model.solo`` the teachers that lead only when named from
+    outside (:func:`led_from_outside`), which its audition neither awaits nor picks."""
+    if model.solo is not None:
+        model.solo.outside[:] = led_from_outside(outside_teachers(model.teachers))
 
 
 def outside_presence(present: list[Any], model: Any, vec_normalize: Any) -> np.ndarray | None:

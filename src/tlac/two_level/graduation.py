@@ -245,6 +245,10 @@ class SoloEpisodes:
         # per teacher: gone now (its availability, a schedule or a function, is 0 at this
         # step): the audition does not wait for it (collect sets it; tlac.algorithms.advice)
         self.gone = np.zeros(n_teachers, dtype=bool)
+        # per teacher: one that leads only when named from outside (a person, who leads by
+        # taking an episode over: tlac.human): never awaited nor judged by the audition, never
+        # picked to lead an episode here (collect sets it: outside_teachers)
+        self.outside = np.zeros(n_teachers, dtype=bool)
         self.led_low, self.led_high = np.inf, -np.inf  # the range of led returns (UCB1's scale)
         self.active = np.zeros(n_envs, dtype=bool)
         self.rng = np.random.default_rng([seed, 0x501])  # its own stream: acting is untouched
@@ -274,7 +278,9 @@ class SoloEpisodes:
         measured. These first episodes are played in that order (:meth:`start`) and nothing is
         copied meanwhile (:attr:`weaning` 1): a teacher is copied only once it can be judged.
         A teacher gone now (:attr:`gone`: its availability schedule is at 0) is not waited
-        for; one that arrives later (its schedule rises from 0) reopens the audition.
+        for; one that arrives later (its schedule rises from 0) reopens the audition. A
+        teacher that leads only when named from outside (:attr:`outside`: a person) is never
+        waited for: with nobody at the page, the audition would never end.
         Before, the copy began at the first update, and one deterministic teacher that never
         reaches a sparse goal took the student's exploration away before it could be judged
         (Acrobot: the low level's entropy at 0.04 of 1.10 nats after 4k steps; the student
@@ -284,7 +290,7 @@ class SoloEpisodes:
             and self.budget > 0
             and (
                 self.solo_episodes < self.min_episodes
-                or bool(((self.led_counts < MIN_LED_EPISODES) & ~self.gone).any())
+                or bool(((self.led_counts < MIN_LED_EPISODES) & ~self.gone & ~self.outside).any())
             )
         )
 
@@ -296,8 +302,9 @@ class SoloEpisodes:
         adversarial one, would otherwise be copied in full (its led episodes at the floor read
         as "no evidence yet"), and the copy takes away the random exploration that gives the
         student its first successes (Acrobot, a teacher that never swings up: -500 against
-        PPO alone's -82, issue 63). A teacher gone now (:attr:`gone`) is not judged."""
-        here = ~self.gone
+        PPO alone's -82, issue 63). A teacher gone now (:attr:`gone`) or one that leads only
+        when named from outside (:attr:`outside`: a person) is not judged."""
+        here = ~self.gone & ~self.outside
         if (
             self.teacher_share <= 0
             or not np.isfinite(self.floor)
@@ -342,15 +349,24 @@ class SoloEpisodes:
         can show nothing the student needs any more (a useless teacher's led episodes, played
         to the time limit, would otherwise cost ever more steps as the student's get shorter)."""
         led_means = self.led_sums / np.maximum(self.led_counts, 1)
-        return bool(self.solo_returns) and float(np.mean(self.solo_returns)) > led_means.max()
+        led_means = led_means[~self.outside]  # a person is not judged (:attr:`outside`)
+        return (
+            bool(self.solo_returns)
+            and len(led_means) > 0
+            and float(np.mean(self.solo_returns)) > led_means.max()
+        )
 
     def start(self, episode_starts: np.ndarray, can_lead: np.ndarray | None = None) -> np.ndarray:
         """Draw solo or assisted for every environment whose episode starts now; returns the
         per-environment solo flags. ``can_lead`` ``(n_envs, n_teachers)``: the teachers that
         can answer in each environment now (present, within the advice budget;
         tlac.algorithms.advice); only they lead, and where none can, the episode is not led.
-        None: every teacher can (the run without advice limits, drawing as before)."""
+        None: every teacher can (the run without advice limits, drawing as before). A teacher
+        that leads only when named from outside (:attr:`outside`) is never picked here."""
         starting = np.flatnonzero(episode_starts)
+        if self.outside.any():
+            can_lead = ~self.outside if can_lead is None else can_lead & ~self.outside
+            can_lead = np.broadcast_to(can_lead, (len(self.active), len(self.outside)))
         if len(starting) and self.auditioning:
             for i in starting:  # the student alone until its floor is known, then each teacher
                 self.active[i] = self.solo_episodes < self.min_episodes
