@@ -144,7 +144,8 @@ def _cmd_train(args: argparse.Namespace) -> int:
 
     if args.resume is not None:
         config = load_run_config(args.resume)
-        if "human" in (config.get("teacher_kinds") or []):
+        kinds = config.get("teacher_kinds")
+        if isinstance(kinds, list) and "human" in kinds:  # (a bad value: resume_run names it)
             raise ConfigError(
                 f"{args.resume!r} has a person as a teacher: continue it with the tlac teach "
                 "command that started it (the same --out)"
