@@ -705,6 +705,34 @@ def test_bad_teach_input_is_one_line_and_status_2(argv, says, capsys, tmp_path):
     assert not (tmp_path / "x").exists()
 
 
+@pytest.mark.parametrize(
+    "argv, budget",
+    [
+        ([], 1000.0),  # DEFAULT_BUDGET
+        (["--advice-budget", "7"], 7.0),
+        (["--set", "advice_budget=5"], 5.0),
+        (["--set", "advice={advice_budget: 6}"], 6.0),
+        (["--set", "advice_budget=null"], None),
+        (["--set", "advice_budget=5", "--advice-budget", "7"], 7.0),
+    ],
+)
+def test_an_explicit_advice_budget_wins_over_the_default(argv, budget, monkeypatch, tmp_path):
+    import tlac.run
+    from tlac.cli import main
+    from tlac.errors import ConfigError
+
+    resolved = []
+    real = tlac.run.resolve_run
+
+    def resolve_then_stop(spec):
+        resolved.append(real(spec))
+        raise ConfigError("stop here")
+
+    monkeypatch.setattr(tlac.run, "resolve_run", resolve_then_stop)
+    assert main(["teach", "doorkey", *argv, "--out", str(tmp_path / "x")]) == 2
+    assert resolved[0].settings.advice.advice_budget == budget
+
+
 def test_import_tlac_imports_no_web_framework():
     import subprocess
     import sys
