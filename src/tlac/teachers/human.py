@@ -32,6 +32,16 @@ ADVICE_FILE = "advice.csv"
 ADVICE_COLUMNS = ("step", "state", "action", "seconds", "mode")
 
 
+def is_person_teacher(name: str) -> bool:
+    """Whether the teacher ``name`` is a person: ``human`` (the person at tlac teach's page)
+    or ``replay:RUN`` (a person's answers recorded in RUN/advice.csv).
+
+    >>> [is_person_teacher(n) for n in ("human", "replay:runs/me", "optimal", "humane")]
+    [True, True, False, False]
+    """
+    return name == "human" or name.startswith("replay:")
+
+
 def encode_state(obs: Any) -> str:
     """One observation as text: ``dtype:shape:base64`` (``uint8:147:AAEC...``; the shape's
     sides joined by ``x``)."""
