@@ -170,6 +170,8 @@ def test_a_request_or_socket_for_another_host_or_origin_is_refused(caplog):
     assert not any(r.exc_info for r in caplog.records)
     assert "Traceback" not in caplog.text
     assert "Host: 'evil.example:8123' is not 127.0.0.1:8123 or localhost:8123" in caplog.text
+    assert "refused a request: http Host: 'evil.example:8123'" in caplog.text
+    assert "from the page" not in caplog.text  # requests, not the page's messages
     assert refusals.counts == {
         "http Host": len(bad_hosts),
         "websocket Host": 3,
@@ -250,8 +252,40 @@ def test_forged_action_ids_and_malformed_messages_are_refused(caplog):
         thread.join(5)
     assert answers == [(2, answers[0][1])]
     assert refusals.total == 14
+    # counted by a fixed set of reasons; the details are in the log only
+    assert refusals.counts == {
+        "bad value": 5,
+        "not pending": 1,
+        "fields": 2,
+        "unknown type": 1,
+        "not an object": 2,
+        "not JSON": 1,
+        "too long": 1,
+        "not text": 1,
+    }
+    assert "refused a message from the page: action 3 is not one of the 3 actions" in caplog.text
     assert not any(r.exc_info for r in caplog.records)
     assert "Traceback" not in caplog.text
+
+
+def test_refusals_are_counted_by_a_fixed_set_of_reasons():
+    """The page's own text (a type, an action, a question id) never becomes a key."""
+    from tlac.human.server import MESSAGE_REASONS, Refusals, parse_message
+
+    refusals = Refusals()
+    for i in range(300):
+        for text in (
+            json.dumps({"type": f"type{i}"}),
+            json.dumps({"type": "answer", "id": 1, "action": 10 + i}),
+            json.dumps({"type": "answer", "id": i, "action": 1, f"x{i}": 0}),
+        ):
+            message, reason, why = parse_message(text, 3)
+            assert message is None and why
+            refusals.refuse(reason, why)
+    assert refusals.counts == {"unknown type": 300, "bad value": 300, "fields": 300}
+    assert set(refusals.counts) <= set(MESSAGE_REASONS)
+    with pytest.raises(ValueError):
+        refusals.refuse("type0", "not a reason")
 
 
 def test_a_flood_of_10000_messages_is_refused_without_changing_anything(caplog):
