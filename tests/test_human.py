@@ -338,6 +338,37 @@ def test_a_flood_of_valid_messages_is_cut_to_the_rate_limit():
 # -- the desk ----------------------------------------------------------------------------------
 
 
+def test_a_full_outbox_drops_progress_reports_first_and_questions_last():
+    import asyncio
+
+    from tlac.human.server import OUTBOX, Outbox
+
+    box = Outbox()
+    box.put({"type": "question", "id": 0})
+    for i in range(OUTBOX + 50):  # a page that reads nothing, a run that reports on
+        box.put({"type": "progress", "step": i})
+    box.put({"type": "question", "id": 1})
+    kinds = [m["type"] for m in box.items]
+    assert len(kinds) == OUTBOX and kinds[0] == "question" and kinds[-1] == "question"
+    assert [m["step"] for m in box.items if m["type"] == "progress"][-1] == OUTBOX + 49
+    small = Outbox(3)
+    for message in ({"type": "question", "id": 0}, {"type": "answered"}, {"type": "question"}):
+        small.put(message)
+    small.put({"type": "question", "id": 3})  # no progress: the other kind gives way
+    assert [m["type"] for m in small.items] == ["question", "question", "question"]
+    small.put({"type": "question", "id": 4})  # nothing but questions: the oldest gives way
+    assert [m.get("id") for m in small.items] == [None, 3, 4]
+
+    async def drain() -> list:
+        got = [await small.get() for _ in range(3)]
+        waiting = asyncio.create_task(small.get())
+        await asyncio.sleep(0.01)
+        small.put({"type": "finished"})
+        return [*got, await asyncio.wait_for(waiting, 1)]
+
+    assert [m["type"] for m in asyncio.run(drain())][-1] == "finished"
+
+
 def test_desk_timeout_counts_the_person_absent_and_a_closed_tab_withdraws():
     desk = Desk(["a", "b"], timeout=0.05, away_seconds=0.3)
     assert desk.ask(None, 0) == (None, None) and desk.stats["asked"] == 0  # no page: not asked

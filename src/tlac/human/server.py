@@ -21,6 +21,7 @@ Safe by default:
 from __future__ import annotations
 
 import asyncio
+import collections
 import contextlib
 import hmac
 import json
@@ -53,7 +54,8 @@ RATE = 30.0
 BURST = 60
 """Messages a page may send at once before the rate applies."""
 OUTBOX = 256
-"""Messages waiting to go to one page; the oldest progress reports give way first."""
+"""Messages waiting to go to one page (:class:`Outbox`); the oldest progress reports give
+way first."""
 LOGGED_IN_FULL = 10
 """Refusals logged one by one; after them, one line per thousand."""
 REQUEST_REASONS = (
@@ -156,6 +158,47 @@ class Refusals:
             LOG.warning("tlac teach: refused %s: %s", what, why)
         elif self.total % 1000 == 0:
             LOG.warning("tlac teach: %d requests and messages refused so far", self.total)
+
+
+class Outbox:
+    """The messages waiting to go to one page, at most ``size``: a page that reads nothing
+    makes the oldest progress report give way to a new message; with none waiting, the oldest
+    message other than a question; a question gives way only to a box of questions. Used from
+    the event loop's thread only (:meth:`put` through ``call_soon_threadsafe``).
+
+    >>> box = Outbox(2)
+    >>> for kind in ("question", "progress", "question"):
+    ...     box.put({"type": kind})
+    >>> [m["type"] for m in box.items]
+    ['question', 'question']
+    """
+
+    def __init__(self, size: int = OUTBOX):
+        self.size = size
+        self.items: collections.deque[dict[str, Any]] = collections.deque()
+        self._ready = asyncio.Event()
+
+    def put(self, message: dict[str, Any]) -> None:
+        if len(self.items) >= self.size:
+            self._drop_one()
+        self.items.append(message)
+        self._ready.set()
+
+    def _drop_one(self) -> None:
+        """The oldest progress report; else the oldest message but a question; else the oldest
+        question."""
+        for gives_way in (lambda kind: kind == "progress", lambda kind: kind != "question"):
+            for i, waiting in enumerate(self.items):
+                if gives_way(waiting.get("type")):
+                    del self.items[i]
+                    return
+        self.items.popleft()
+
+    async def get(self) -> dict[str, Any]:
+        while not self.items:
+            self._ready.clear()
+            await self._ready.wait()
+        return self.items.popleft()
 
 
 def _header(scope: dict[str, Any], name: bytes) -> str | None:
@@ -265,16 +308,10 @@ def make_app(desk: Desk, token: str, refusals: Refusals | None = None) -> Any:
     async def socket(websocket: WebSocket) -> None:
         await websocket.accept()
         loop = asyncio.get_running_loop()
-        outbox: asyncio.Queue[dict[str, Any]] = asyncio.Queue()
-
-        def put(message: dict[str, Any]) -> None:
-            if outbox.qsize() >= OUTBOX:  # a page that reads nothing: drop the oldest
-                with contextlib.suppress(asyncio.QueueEmpty):
-                    outbox.get_nowait()
-            outbox.put_nowait(message)
+        outbox = Outbox()
 
         def send(message: dict[str, Any]) -> None:  # from any thread
-            loop.call_soon_threadsafe(put, message)
+            loop.call_soon_threadsafe(outbox.put, message)
 
         async def sender() -> None:
             while True:
