@@ -85,3 +85,22 @@ def test_a_bad_leader_is_refused_and_the_hook_is_never_saved(tmp_path):
     env = gym.make("CartPole-v1")
     loaded = TLAC.load(path, env=env, teachers=[lambda obs: 0, lambda obs: 1], resume=True)
     assert loaded.episode_leader is None
+
+
+def test_an_episode_leader_gone_mid_episode_leaves_no_episode_led():
+    """tlac teach's session ends (``episode_leader = None``) during a take-over: the episode
+    it led goes back to the high level at once (``_led_by`` all -1), not led to its end."""
+    model = _model(variant="paper")
+
+    class LeadThenGo(LeadOnce):
+        def lead(self, episode_starts: np.ndarray) -> np.ndarray | None:
+            if self.named:
+                model.episode_leader = None  # from the next step on
+            return super().lead(episode_starts)
+
+    model.episode_leader = LeadThenGo(0)
+    ro = model.collect()
+    first, _ = _first_two_episodes(ro)
+    assert first.stop > 3 and (ro.choices[:2, 0] == 0).all()
+    assert (ro.choices[2 : first.stop, 0] != 0).any()  # the high level chooses again
+    assert (model._led_by == -1).all()

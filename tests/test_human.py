@@ -170,6 +170,8 @@ def test_a_request_or_socket_for_another_host_or_origin_is_refused(caplog):
     assert not any(r.exc_info for r in caplog.records)
     assert "Traceback" not in caplog.text
     assert "Host: 'evil.example:8123' is not 127.0.0.1:8123 or localhost:8123" in caplog.text
+    assert "refused a request: http Host: 'evil.example:8123'" in caplog.text
+    assert "from the page" not in caplog.text  # requests, not the page's messages
     assert refusals.counts == {
         "http Host": len(bad_hosts),
         "websocket Host": 3,
@@ -250,8 +252,40 @@ def test_forged_action_ids_and_malformed_messages_are_refused(caplog):
         thread.join(5)
     assert answers == [(2, answers[0][1])]
     assert refusals.total == 14
+    # counted by a fixed set of reasons; the details are in the log only
+    assert refusals.counts == {
+        "bad value": 5,
+        "not pending": 1,
+        "fields": 2,
+        "unknown type": 1,
+        "not an object": 2,
+        "not JSON": 1,
+        "too long": 1,
+        "not text": 1,
+    }
+    assert "refused a message from the page: action 3 is not one of the 3 actions" in caplog.text
     assert not any(r.exc_info for r in caplog.records)
     assert "Traceback" not in caplog.text
+
+
+def test_refusals_are_counted_by_a_fixed_set_of_reasons():
+    """The page's own text (a type, an action, a question id) never becomes a key."""
+    from tlac.human.server import MESSAGE_REASONS, Refusals, parse_message
+
+    refusals = Refusals()
+    for i in range(300):
+        for text in (
+            json.dumps({"type": f"type{i}"}),
+            json.dumps({"type": "answer", "id": 1, "action": 10 + i}),
+            json.dumps({"type": "answer", "id": i, "action": 1, f"x{i}": 0}),
+        ):
+            message, reason, why = parse_message(text, 3)
+            assert message is None and why
+            refusals.refuse(reason, why)
+    assert refusals.counts == {"unknown type": 300, "bad value": 300, "fields": 300}
+    assert set(refusals.counts) <= set(MESSAGE_REASONS)
+    with pytest.raises(ValueError):
+        refusals.refuse("type0", "not a reason")
 
 
 def test_a_flood_of_10000_messages_is_refused_without_changing_anything(caplog):
@@ -302,6 +336,37 @@ def test_a_flood_of_valid_messages_is_cut_to_the_rate_limit():
 
 
 # -- the desk ----------------------------------------------------------------------------------
+
+
+def test_a_full_outbox_drops_progress_reports_first_and_questions_last():
+    import asyncio
+
+    from tlac.human.server import OUTBOX, Outbox
+
+    box = Outbox()
+    box.put({"type": "question", "id": 0})
+    for i in range(OUTBOX + 50):  # a page that reads nothing, a run that reports on
+        box.put({"type": "progress", "step": i})
+    box.put({"type": "question", "id": 1})
+    kinds = [m["type"] for m in box.items]
+    assert len(kinds) == OUTBOX and kinds[0] == "question" and kinds[-1] == "question"
+    assert [m["step"] for m in box.items if m["type"] == "progress"][-1] == OUTBOX + 49
+    small = Outbox(3)
+    for message in ({"type": "question", "id": 0}, {"type": "answered"}, {"type": "question"}):
+        small.put(message)
+    small.put({"type": "question", "id": 3})  # no progress: the other kind gives way
+    assert [m["type"] for m in small.items] == ["question", "question", "question"]
+    small.put({"type": "question", "id": 4})  # nothing but questions: the oldest gives way
+    assert [m.get("id") for m in small.items] == [None, 3, 4]
+
+    async def drain() -> list:
+        got = [await small.get() for _ in range(3)]
+        waiting = asyncio.create_task(small.get())
+        await asyncio.sleep(0.01)
+        small.put({"type": "finished"})
+        return [*got, await asyncio.wait_for(waiting, 1)]
+
+    assert [m["type"] for m in asyncio.run(drain())][-1] == "finished"
 
 
 def test_desk_timeout_counts_the_person_absent_and_a_closed_tab_withdraws():
@@ -703,6 +768,34 @@ def test_bad_teach_input_is_one_line_and_status_2(argv, says, capsys, tmp_path):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and says in err, err
     assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.parametrize(
+    "argv, budget",
+    [
+        ([], 1000.0),  # DEFAULT_BUDGET
+        (["--advice-budget", "7"], 7.0),
+        (["--set", "advice_budget=5"], 5.0),
+        (["--set", "advice={advice_budget: 6}"], 6.0),
+        (["--set", "advice_budget=null"], None),
+        (["--set", "advice_budget=5", "--advice-budget", "7"], 7.0),
+    ],
+)
+def test_an_explicit_advice_budget_wins_over_the_default(argv, budget, monkeypatch, tmp_path):
+    import tlac.run
+    from tlac.cli import main
+    from tlac.errors import ConfigError
+
+    resolved = []
+    real = tlac.run.resolve_run
+
+    def resolve_then_stop(spec):
+        resolved.append(real(spec))
+        raise ConfigError("stop here")
+
+    monkeypatch.setattr(tlac.run, "resolve_run", resolve_then_stop)
+    assert main(["teach", "doorkey", *argv, "--out", str(tmp_path / "x")]) == 2
+    assert resolved[0].settings.advice.advice_budget == budget
 
 
 def test_import_tlac_imports_no_web_framework():

@@ -45,10 +45,16 @@ def _cmd_teach(args: argparse.Namespace) -> int:
         raise ConfigError("--teachers names human twice; there is one person at the page")
     if args.advice_budget is not None and not args.advice_budget > 0:
         raise ConfigError(f"--advice-budget must be a positive number, got {args.advice_budget}")
-    overrides: dict[str, Any] = {
-        **_parse_overrides(args.set),
-        "advice_budget": DEFAULT_BUDGET if args.advice_budget is None else args.advice_budget,
-    }
+    overrides: dict[str, Any] = _parse_overrides(args.set)
+    if args.advice_budget is not None:
+        overrides["advice_budget"] = args.advice_budget
+    # an explicit budget (--advice-budget, --set advice_budget=N or --set advice={...}) wins;
+    # the default fills in only where none is given
+    advice = overrides.get("advice")
+    if "advice_budget" not in overrides and not (
+        isinstance(advice, dict) and "advice_budget" in advice
+    ):
+        overrides["advice_budget"] = DEFAULT_BUDGET
     if args.teacher_cost:
         overrides["teacher_cost"] = _teacher_numbers("--teacher-cost", args.teacher_cost)
     eval_every = args.eval_every or max(args.steps // 20, 1000)
@@ -87,11 +93,13 @@ def _cmd_teach(args: argparse.Namespace) -> int:
     )
     if not str(out).strip():
         raise ConfigError("--out '' names no folder; expected the run folder's path")
+    budget = run.settings.advice.advice_budget  # as resolved: None is no limit
+    budget_text = "no limit on questions" if budget is None else f"{budget:g} questions at most"
     with TeachSession(names, port=args.port, timeout=args.timeout) as session:
         url = session.server.url
         print(
             f"tlac teach: tlac on {args.env}, teachers [{', '.join(run.teacher_kinds)}], "
-            f"{spec.steps} steps, {overrides['advice_budget']:g} questions at most -> {out}"
+            f"{spec.steps} steps, {budget_text} -> {out}"
         )
         print(f"tlac teach: open {url}", flush=True)
         if args.open:
@@ -176,7 +184,8 @@ def register(subparsers: Any) -> None:
         "--eval-every",
         type=positive_int,
         default=None,
-        help="evaluate the student alone every N steps (the page's plot; default steps/20)",
+        help="evaluate the student alone every N steps (the page's plot; default steps/20, "
+        "at least 1000)",
     )
     teach.add_argument(
         "--eval-episodes", type=non_negative_int, default=10, help="episodes per evaluation"

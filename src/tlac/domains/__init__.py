@@ -35,6 +35,7 @@ from tlac.gym_ids import GYM_IDS, register_gym_ids  # noqa: F401  (their former 
 from tlac.recording import EpisodeRecorder
 from tlac.teachers.base import NamedTeacher, Teacher, unique_names
 from tlac.teachers.files import load_teacher_file, teacher_file
+from tlac.teachers.human import is_person_teacher
 from tlac.teachers.wrappers import MixedRandomTeacher, RandomTeacher
 
 
@@ -287,7 +288,7 @@ def parse_teacher_spec(domain: Domain, spec: str) -> tuple[str, float | None]:
     good / noisy construction, appendix A.1.1, with any probability). A teacher named by file
     (``path/to/file.py:NAME``, ``agent.zip``, an rl-zoo folder: tlac.teachers.files), with any
     domain, gives the file's spec without its ``:P``."""
-    if spec == "human" or spec.startswith("replay:"):  # a person (tlac teach), a recording
+    if is_person_teacher(spec):  # a person (tlac teach), a recording
         return _person_teacher(spec), None
     found = teacher_file(spec)
     if found is not None:
@@ -371,8 +372,9 @@ def make_teachers(
     teachers: list[Teacher] = []
     for i, ((_, name, prob), label) in enumerate(zip(parsed, labels, strict=True)):
         teacher_seed = seed + 1000 * (i + 1)
-        found = None if name == "human" or name.startswith("replay:") else teacher_file(name)
-        if found is None and (name == "human" or name.startswith("replay:")):
+        person = is_person_teacher(name)
+        found = None if person else teacher_file(name)
+        if person:
             teacher = _make_person_teacher(name, env, teacher_seed)
         elif found is None:
             teacher = domain.make_teacher(name, env, teacher_seed)

@@ -21,6 +21,7 @@ Safe by default:
 from __future__ import annotations
 
 import asyncio
+import collections
 import contextlib
 import hmac
 import json
@@ -53,9 +54,32 @@ RATE = 30.0
 BURST = 60
 """Messages a page may send at once before the rate applies."""
 OUTBOX = 256
-"""Messages waiting to go to one page; the oldest progress reports give way first."""
+"""Messages waiting to go to one page (:class:`Outbox`); the oldest progress reports give
+way first."""
 LOGGED_IN_FULL = 10
-"""Refused messages logged one by one; after them, one line per thousand."""
+"""Refusals logged one by one; after them, one line per thousand."""
+REQUEST_REASONS = (
+    "http token",
+    "http Host",
+    "websocket token",
+    "websocket Host",
+    "websocket Origin",
+)
+"""Why an HTTP request or WebSocket handshake is refused (:func:`check_request`)."""
+MESSAGE_REASONS = (
+    "not text",
+    "too long",
+    "not JSON",
+    "not an object",
+    "unknown type",
+    "fields",
+    "bad value",
+    "flood",
+    "not pending",
+)
+"""Why a message from the page is refused (:func:`parse_message`, the rate limit, an answer
+to a question that is not waiting): :attr:`Refusals.counts`' keys are these and
+:data:`REQUEST_REASONS`, the details go to the log only."""
 
 MESSAGE_FIELDS = {
     "answer": {"type", "id", "action"},
@@ -74,57 +98,107 @@ def page_html() -> str:
     return resources.files("tlac.human").joinpath("page.html").read_text(encoding="utf-8")
 
 
-def parse_message(text: Any, n_actions: int) -> tuple[dict[str, Any] | None, str]:
-    """A message from the page, checked: ``(message, "")``, or ``(None, why)`` for one that
-    is refused.
+def parse_message(text: Any, n_actions: int) -> tuple[dict[str, Any] | None, str, str]:
+    """A message from the page, checked: ``(message, "", "")``, or ``(None, reason, why)``
+    for one that is refused (``reason`` one of :data:`MESSAGE_REASONS`, ``why`` in words).
 
     >>> parse_message('{"type": "answer", "id": 3, "action": 1}', 6)
-    ({'type': 'answer', 'id': 3, 'action': 1}, '')
-    >>> parse_message('{"type": "answer", "id": 3, "action": 6}', 6)[1]
-    'action 6 is not one of the 6 actions'
-    >>> parse_message('{"type": "answer", "id": 3, "action": true}', 6)[1]
-    'action must be an integer'
+    ({'type': 'answer', 'id': 3, 'action': 1}, '', '')
+    >>> parse_message('{"type": "answer", "id": 3, "action": 6}', 6)[1:]
+    ('bad value', 'action 6 is not one of the 6 actions')
+    >>> parse_message('{"type": "answer", "id": 3, "action": true}', 6)[1:]
+    ('bad value', 'action must be an integer')
     """
     if not isinstance(text, str):
-        return None, "not a text message"
+        return None, "not text", "not a text message"
     if len(text) > MAX_MESSAGE:
-        return None, f"longer than {MAX_MESSAGE} bytes"
+        return None, "too long", f"longer than {MAX_MESSAGE} bytes"
     try:
         msg = json.loads(text)
     except (ValueError, RecursionError):
-        return None, "not JSON"
+        return None, "not JSON", "not JSON"
     if not isinstance(msg, dict):
-        return None, "not a JSON object"
+        return None, "not an object", "not a JSON object"
     kind = msg.get("type")
     if not isinstance(kind, str) or kind not in MESSAGE_FIELDS:
-        return None, f"unknown type {str(kind)[:20]!r}"
+        return None, "unknown type", f"unknown type {str(kind)[:20]!r}"
     if set(msg) != MESSAGE_FIELDS[kind]:
-        return None, f"{kind}: fields {sorted(msg)[:6]} (expected {sorted(MESSAGE_FIELDS[kind])})"
+        expected = sorted(MESSAGE_FIELDS[kind])
+        return None, "fields", f"{kind}: fields {sorted(msg)[:6]} (expected {expected})"
     if kind == "answer":
         for key in ("id", "action"):
             if not isinstance(msg[key], int) or isinstance(msg[key], bool):
-                return None, f"{key} must be an integer"
+                return None, "bad value", f"{key} must be an integer"
         if not 0 <= msg["action"] < n_actions:
-            return None, f"action {msg['action']} is not one of the {n_actions} actions"
+            why = f"action {msg['action']} is not one of the {n_actions} actions"
+            return None, "bad value", why
     if kind == "takeover" and not isinstance(msg["on"], bool):
-        return None, "on must be true or false"
-    return msg, ""
+        return None, "bad value", "on must be true or false"
+    return msg, "", ""
 
 
 class Refusals:
-    """Refused requests and messages: counted by reason, logged without a traceback."""
+    """Refused requests and messages: counted by reason (:data:`REQUEST_REASONS`,
+    :data:`MESSAGE_REASONS`: a fixed set, whatever the page sends), logged with their detail
+    without a traceback."""
 
     def __init__(self) -> None:
         self.counts: Counter[str] = Counter()
         self.total = 0
 
-    def refuse(self, why: str) -> None:
+    def refuse(self, reason: str, why: str) -> None:
+        """Count a refusal under ``reason`` and log ``why`` (the first few in full)."""
+        request = reason in REQUEST_REASONS
+        if not request and reason not in MESSAGE_REASONS:
+            raise ValueError(f"not a reason for a refusal: {reason!r}")
         self.total += 1
-        self.counts[why.split(":")[0][:40]] += 1
+        self.counts[reason] += 1
         if self.total <= LOGGED_IN_FULL:
-            LOG.warning("tlac teach: refused a message from the page: %s", why)
+            what = "a request" if request else "a message from the page"
+            LOG.warning("tlac teach: refused %s: %s", what, why)
         elif self.total % 1000 == 0:
-            LOG.warning("tlac teach: %d messages from the page refused so far", self.total)
+            LOG.warning("tlac teach: %d requests and messages refused so far", self.total)
+
+
+class Outbox:
+    """The messages waiting to go to one page, at most ``size``: a page that reads nothing
+    makes the oldest progress report give way to a new message; with none waiting, the oldest
+    message other than a question; a question gives way only to a box of questions. Used from
+    the event loop's thread only (:meth:`put` through ``call_soon_threadsafe``).
+
+    >>> box = Outbox(2)
+    >>> for kind in ("question", "progress", "question"):
+    ...     box.put({"type": kind})
+    >>> [m["type"] for m in box.items]
+    ['question', 'question']
+    """
+
+    def __init__(self, size: int = OUTBOX):
+        self.size = size
+        self.items: collections.deque[dict[str, Any]] = collections.deque()
+        self._ready = asyncio.Event()
+
+    def put(self, message: dict[str, Any]) -> None:
+        if len(self.items) >= self.size:
+            self._drop_one()
+        self.items.append(message)
+        self._ready.set()
+
+    def _drop_one(self) -> None:
+        """The oldest progress report; else the oldest message but a question; else the oldest
+        question."""
+        for gives_way in (lambda kind: kind == "progress", lambda kind: kind != "question"):
+            for i, waiting in enumerate(self.items):
+                if gives_way(waiting.get("type")):
+                    del self.items[i]
+                    return
+        self.items.popleft()
+
+    async def get(self) -> dict[str, Any]:
+        while not self.items:
+            self._ready.clear()
+            await self._ready.wait()
+        return self.items.popleft()
 
 
 def _header(scope: dict[str, Any], name: bytes) -> str | None:
@@ -144,29 +218,32 @@ def allowed_hosts(port: int) -> set[str]:
     return hosts
 
 
-def check_request(scope: dict[str, Any], token: bytes) -> str:
-    """Why an HTTP request or WebSocket handshake is refused, or "" when it is let in: the
-    token, the ``Host`` header, and a handshake's ``Origin``."""
+def check_request(scope: dict[str, Any], token: bytes) -> tuple[str, str]:
+    """Why an HTTP request or WebSocket handshake is refused, ``(reason, why)`` (``reason``
+    one of :data:`REQUEST_REASONS`), or ``("", "")`` when it is let in: the token, the
+    ``Host`` header, and a handshake's ``Origin``."""
     kind = scope["type"]
     query = parse_qs(scope.get("query_string", b"").decode("latin-1"))
     given = query.get("token", [""])[0].encode("latin-1", "replace")
     if not hmac.compare_digest(given, token):
-        return f"{kind}: wrong or missing token"
+        return f"{kind} token", f"{kind}: wrong or missing token"
     server = scope.get("server")
     port = server[1] if server and len(server) > 1 else None
     host = _header(scope, b"host")
     if not isinstance(port, int) or host is None or host.lower() not in allowed_hosts(port):
         return (
+            f"{kind} Host",
             f"{kind} Host: {str(host)[:60]!r} is not {HOST}:{port} or localhost:{port} "
-            "(a DNS-rebinding page?)"
+            "(a DNS-rebinding page?)",
         )
     origin = _header(scope, b"origin")
     if kind == "websocket" and origin is not None and origin.lower() != f"http://{host.lower()}":
         return (
+            f"{kind} Origin",
             f"{kind} Origin: {origin[:60]!r} is not the page's own, http://{host[:60]} "
-            "(a cross-site page?)"
+            "(a cross-site page?)",
         )
-    return ""
+    return "", ""
 
 
 class TokenGate:
@@ -178,12 +255,12 @@ class TokenGate:
 
     async def __call__(self, scope: dict[str, Any], receive: Any, send: Any) -> None:
         if scope["type"] in ("http", "websocket"):
-            why = check_request(scope, self.token)
-            if why:
-                self.refusals.refuse(why)
+            reason, why = check_request(scope, self.token)
+            if reason:
+                self.refusals.refuse(reason, why)
                 if scope["type"] == "http":
-                    reason = "wrong or missing token" if why.endswith("token") else "wrong Host"
-                    await PlainTextResponse(f"forbidden: {reason}", 403)(scope, receive, send)
+                    said = "wrong or missing token" if reason == "http token" else "wrong Host"
+                    await PlainTextResponse(f"forbidden: {said}", 403)(scope, receive, send)
                 else:  # close before accepting: the handshake is refused (HTTP 403)
                     message = await receive()
                     if message["type"] == "websocket.connect":
@@ -231,16 +308,10 @@ def make_app(desk: Desk, token: str, refusals: Refusals | None = None) -> Any:
     async def socket(websocket: WebSocket) -> None:
         await websocket.accept()
         loop = asyncio.get_running_loop()
-        outbox: asyncio.Queue[dict[str, Any]] = asyncio.Queue()
-
-        def put(message: dict[str, Any]) -> None:
-            if outbox.qsize() >= OUTBOX:  # a page that reads nothing: drop the oldest
-                with contextlib.suppress(asyncio.QueueEmpty):
-                    outbox.get_nowait()
-            outbox.put_nowait(message)
+        outbox = Outbox()
 
         def send(message: dict[str, Any]) -> None:  # from any thread
-            loop.call_soon_threadsafe(put, message)
+            loop.call_soon_threadsafe(outbox.put, message)
 
         async def sender() -> None:
             while True:
@@ -256,11 +327,11 @@ def make_app(desk: Desk, token: str, refusals: Refusals | None = None) -> Any:
                 if event["type"] == "websocket.disconnect":
                     break
                 if not bucket.take():
-                    refusals.refuse("flood: over the rate limit")
+                    refusals.refuse("flood", "flood: over the rate limit")
                     continue
-                message, why = parse_message(event.get("text"), n_actions)
+                message, reason, why = parse_message(event.get("text"), n_actions)
                 if message is None:
-                    refusals.refuse(why)
+                    refusals.refuse(reason, why)
                     continue
                 handle(message)
         except (WebSocketDisconnect, RuntimeError, OSError):
@@ -273,7 +344,7 @@ def make_app(desk: Desk, token: str, refusals: Refusals | None = None) -> Any:
         kind = message["type"]
         if kind == "answer":
             if not desk.answer(message["id"], message["action"]):
-                refusals.refuse(f"answer: question {message['id']} is not pending")
+                refusals.refuse("not pending", f"answer: question {message['id']} is not pending")
         elif kind == "takeover":
             desk.request_takeover(message["on"])
         else:

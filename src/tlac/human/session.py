@@ -30,7 +30,7 @@ from tlac.errors import ConfigError
 from tlac.human.desk import Desk
 from tlac.human.render import Framer
 from tlac.recording import find_episode_recorder
-from tlac.teachers.human import ADVICE_FILE, AdviceLog, HumanTeacher
+from tlac.teachers.human import ADVICE_FILE, AdviceLog, HumanTeacher, open_csv_to_append
 from tlac.two_level.collect import episode_leaders
 
 EPISODES_FILE = "human_episodes.csv"
@@ -187,12 +187,7 @@ class TeachSession:
         teacher.step = lambda: int(model.num_timesteps)
         self.log = AdviceLog(Path(out) / ADVICE_FILE)
         teacher.log = self.log
-        path = Path(out) / EPISODES_FILE
-        new = not path.exists() or path.stat().st_size == 0
-        self.episodes = path.open("a", newline="")
-        if new:
-            csv.writer(self.episodes).writerow(EPISODE_COLUMNS)
-            self.episodes.flush()
+        self.episodes = open_csv_to_append(Path(out) / EPISODES_FILE, EPISODE_COLUMNS)
         model.episode_leader = self  # the take-over (:meth:`lead`); not saved with the model
         self.desk.left = self._left()
         self._thread = threading.Thread(

@@ -32,6 +32,7 @@ from typing import Any
 import gymnasium as gym
 
 from tlac.errors import ConfigError, import_failure
+from tlac.teachers.human import is_person_teacher
 from tlac.teachers.sb3 import check_trust_pickle, from_rl_zoo, from_sb3
 
 POLICY_MODULES = {
@@ -91,7 +92,7 @@ def check_teacher_files(specs: list[str], trust_pickle: bool, how: str = "--trus
     """ConfigError, before anything is written, for a teacher file that is missing, a Python
     file's teacher without a name, or an agent's pickles without ``trust_pickle``."""
     for spec in specs:
-        found = None if spec.startswith("replay:") else teacher_file(spec)
+        found = None if is_person_teacher(spec) else teacher_file(spec)
         if found is None:
             continue
         if found.kind == "python" and not found.attr:

@@ -32,6 +32,16 @@ ADVICE_FILE = "advice.csv"
 ADVICE_COLUMNS = ("step", "state", "action", "seconds", "mode")
 
 
+def is_person_teacher(name: str) -> bool:
+    """Whether the teacher ``name`` is a person: ``human`` (the person at tlac teach's page)
+    or ``replay:RUN`` (a person's answers recorded in RUN/advice.csv).
+
+    >>> [is_person_teacher(n) for n in ("human", "replay:runs/me", "optimal", "humane")]
+    [True, True, False, False]
+    """
+    return name == "human" or name.startswith("replay:")
+
+
 def encode_state(obs: Any) -> str:
     """One observation as text: ``dtype:shape:base64`` (``uint8:147:AAEC...``; the shape's
     sides joined by ``x``)."""
@@ -63,18 +73,26 @@ def _rows(obs: Any) -> np.ndarray:
     return arr
 
 
+def open_csv_to_append(path: str | Path, columns: tuple[str, ...] | list[str]) -> Any:
+    """``path`` opened to append CSV rows, its header ``columns`` written (and flushed) first
+    where the file is new or empty: a resumed run carries on the rows it wrote before."""
+    path = Path(path)
+    new = not path.exists() or path.stat().st_size == 0
+    file = path.open("a", newline="")
+    if new:
+        csv.writer(file).writerow(columns)
+        file.flush()
+    return file
+
+
 class AdviceLog:
     """The run folder's ``advice.csv``: one row per answer, flushed at once (a run stopped at
     any moment keeps every answer given)."""
 
     def __init__(self, path: str | Path):
         self.path = Path(path)
-        new = not self.path.exists() or self.path.stat().st_size == 0
-        self._file = self.path.open("a", newline="")
+        self._file = open_csv_to_append(self.path, ADVICE_COLUMNS)
         self._writer = csv.writer(self._file)
-        if new:
-            self._writer.writerow(ADVICE_COLUMNS)
-            self._file.flush()
         self.rows = 0
 
     def write(self, step: int, obs: Any, action: int, seconds: float | None, mode: str) -> None:

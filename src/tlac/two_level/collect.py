@@ -124,6 +124,8 @@ def collect(model: Any, callbacks: LearnCallbacks | None = None) -> Rollout | No
             ro.solo[t] = solo
         elif named is not None:  # paper variant: the teacher named acts in every state
             choices = lead_episodes(model, named, limits, choices)
+        else:  # no episode_leader (any more: tlac teach's ended): no episode stays led
+            model._led_by.fill(-1)
         if limits is not None:  # the acting teachers' answers, paid for
             choices, high_mask = charge_acting(model, limits, choices, can)
             ro.askable[t] = limits.present & (asks & labels_from_gate)[:, None]
