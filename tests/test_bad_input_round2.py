@@ -602,3 +602,15 @@ def test_eval_of_a_garbage_sb3_zip_with_trust_pickle_is_one_line(made, tmp_path,
     (run / "config.yaml").write_text(yaml.safe_dump(config))
     line = one_line_error(["eval", str(run), "--episodes", "1", "--trust-pickle"], capsys)
     assert f"'{run / 'model.zip'}' is not a loadable ppo model (SB3 zip)" in line
+
+
+def test_resume_sends_a_run_with_a_person_as_a_teacher_to_tlac_teach(made, tmp_path, capsys):
+    run = tmp_path / "run"
+    shutil.copytree(made["run"], run)
+    (run / "result.json").unlink()
+    torch.save({"run": {"num_timesteps": 0}, "training": {}}, run / "checkpoint.pt")
+    config = yaml.safe_load((run / "config.yaml").read_text())
+    config["teacher_kinds"] = ["human", "random"]
+    (run / "config.yaml").write_text(yaml.safe_dump(config))
+    line = one_line_error(["train", "--resume", str(run), "--no-progress"], capsys)
+    assert "has a person as a teacher: continue it with the tlac teach command" in line
