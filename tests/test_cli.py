@@ -234,7 +234,8 @@ def test_readme_starts_with_the_two_commands():
     )
 
 
-@pytest.mark.parametrize("keep_best", [False, True])
+# keep_best True (a kill and resume with periodic evaluations, about 20 s) in the slow tier
+@pytest.mark.parametrize("keep_best", [False, pytest.param(True, marks=pytest.mark.slow)])
 def test_an_interrupted_run_resumes_exactly(tmp_path, keep_best):
     """A TL-AC run stopped after a checkpoint and resumed with `tlac train --resume` ends with
     the same run files as an uninterrupted run (progress.csv without its wall-clock rows);

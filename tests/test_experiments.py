@@ -272,6 +272,7 @@ def start_grid(cfg_path: Path, out: Path, workers: int) -> subprocess.Popen:
     )
 
 
+@pytest.mark.slow  # fault injection: a grid killed and resumed (about 25 s)
 def test_tiny_grid_local_runner_kill_resume_and_report(tmp_path: Path) -> None:
     """The tiny grid through the local runner: interrupted (the driver killed with SIGKILL right
     after the first run finished), resumed by rerunning, then reported. Every run ends finished

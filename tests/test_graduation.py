@@ -611,6 +611,7 @@ def _teacher_likelihood(model_settings: dict, steps: int = 8000) -> float:
     return float(np.exp(log_p[np.arange(len(obs)), advice]).mean())
 
 
+@pytest.mark.slow  # a learning test (about 35 s)
 def test_graduate_imitation_moves_the_student_towards_its_teacher():
     """8000 steps with one deterministic teacher: the student's likelihood of the teacher's
     actions on the teacher's own states is far higher with the imitation term than without it

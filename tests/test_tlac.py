@@ -381,7 +381,7 @@ def _training_digest(model) -> str:
     ("env", "teachers", "settings"),
     [
         ("doorkey", ["optimal", "random", "random"], {}),
-        ("doorkey", ["L", "R"], {"selector": "ucb1"}),
+        pytest.param("doorkey", ["L", "R"], {"selector": "ucb1"}, marks=pytest.mark.slow),
         ("pendulum", None, {"use_sde": True, "n_steps": 16, "batch_size": 16}),
         # every state silent, every episode solo: the kept student and the solo statistics
         # are part of the training state
