@@ -426,6 +426,11 @@ def test_bad_teacher_spec_and_rules_for_box_actions():
         (["--teacher-cost", "random=-1"], "must be >= 0"),
         (["--availability", "optimal=1.5"], "must be in (0, 1]"),
         (["--teacher-cost", "random"], "--teacher-cost expects NAME=NUMBER"),
+        # availability schedules (docs/advice.md)
+        (["--availability", "optimal=linear:1.0"], "NAME=NUMBER or NAME=linear:START:END"),
+        (["--availability", "optimal=linear:1:2"], "{linear: [start, end]} with start and end"),
+        (["--set", "availability={optimal: {steps: [[5, 1.0]]}}"], "starting at step 0"),
+        (["--availability", "oracle=linear:1:0"], "names teacher 'oracle'"),
     ],
 )
 def test_cli_bad_advice_flags_exit_2_with_one_line(tmp_path, capsys, flags, message):

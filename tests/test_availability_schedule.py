@@ -326,19 +326,3 @@ def test_cli_takes_a_linear_flag_and_a_step_schedule_by_set(tmp_path):
     result = json.loads((out / "result.json").read_text())
     teacher = result["advice"]["teachers"]["optimal"]
     assert teacher["availability"] == {"steps": [[0, 1.0], [32, 0.0]]}
-
-
-@pytest.mark.parametrize(
-    ("flags", "message"),
-    [
-        (["--availability", "optimal=linear:1.0"], "NAME=NUMBER or NAME=linear:START:END"),
-        (["--availability", "optimal=linear:1:2"], "{linear: [start, end]} with start and end"),
-        (["--set", "availability={optimal: {steps: [[5, 1.0]]}}"], "starting at step 0"),
-        (["--availability", "oracle=linear:1:0"], "names teacher 'oracle'"),
-    ],
-)
-def test_cli_bad_availability_exits_2_with_one_line(tmp_path, capsys, flags, message):
-    argv = ["train", "--env", "doorkey", "--steps", "64", "--out", str(tmp_path / "r"), *flags]
-    assert main([*argv, "--no-progress"]) == 2
-    err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and message in err
