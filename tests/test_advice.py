@@ -167,6 +167,21 @@ def test_the_budget_is_never_exceeded_random_cases():
         assert (np.broadcast_to(costs, (n, k))[refused] > left).all()  # none was left unasked
 
 
+def ask_and_charge(ledger: AdviceLedger, rng: np.random.Generator, envs: int, k: int) -> np.ndarray:
+    """One collection step of random asks and high-level choices among the teachers that can
+    answer: the acting answers, then the labels, paid as TL-AC pays them. Checks that only
+    present, asked teachers label; returns the answers counted per teacher."""
+    can = ledger.can_answer(rng.random(envs) < 0.8)
+    choices = np.array([rng.choice(np.flatnonzero(np.append(c, True))) for c in can])
+    wanted = np.zeros((envs, k), dtype=bool)
+    acting = np.flatnonzero(choices < k)
+    wanted[acting, choices[acting]] = True
+    acted = ledger.charge(wanted, acting=True)
+    labels = ledger.charge(can | acted, paid=acted)
+    assert not (labels & ~(can | acted)).any()  # only present, asked teachers label
+    return (acted | labels).sum(0)
+
+
 def test_ledger_counts_add_up_random_cases():
     """Over random costs, availabilities and budgets: presence follows availability (0 never,
     1 always), what is spent never exceeds the budget and is the answers' cost, and every
@@ -183,15 +198,7 @@ def test_ledger_counts_add_up_random_cases():
             ledger.draw_presence(rng.random(envs) < 0.3)
             assert not ledger.present[:, availability == 0].any()
             assert ledger.present[:, availability == 1].all()
-            can = ledger.can_answer(rng.random(envs) < 0.8)
-            choices = np.array([rng.choice(np.flatnonzero(np.append(c, True))) for c in can])
-            wanted = np.zeros((envs, k), dtype=bool)
-            acting = np.flatnonzero(choices < k)
-            wanted[acting, choices[acting]] = True
-            acted = ledger.charge(wanted, acting=True)
-            labels = ledger.charge(can | acted, paid=acted)
-            assert not (labels & ~(can | acted)).any()  # only present, asked teachers label
-            expected_answers += (acted | labels).sum(0)
+            expected_answers += ask_and_charge(ledger, rng, envs, k)
         assert ledger.spent <= budget + 1e-9
         assert ledger.spent == pytest.approx(float(ledger.answers @ costs))
         assert ledger.answers.tolist() == expected_answers.tolist()

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 import stable_baselines3  # noqa: F401  (imported while collecting: the first test is not its import)
 import torch
+from test_advice import ask_and_charge
 
 from tlac import TLAC
 from tlac.algorithms.advice import AdviceLedger
@@ -159,15 +160,7 @@ def test_the_budget_is_never_exceeded_with_schedules():
         for step in range(20):
             ledger.draw_presence(rng.random(envs) < 0.3, step, 1.0 - step / 20)
             assert not ledger.present[:, ledger.availability == 0].any()
-            can = ledger.can_answer(rng.random(envs) < 0.8)
-            choices = np.array([rng.choice(np.flatnonzero(np.append(c, True))) for c in can])
-            wanted = np.zeros((envs, k), dtype=bool)
-            acting = np.flatnonzero(choices < k)
-            wanted[acting, choices[acting]] = True
-            acted = ledger.charge(wanted, acting=True)
-            labels = ledger.charge(can | acted, paid=acted)
-            assert not (labels & ~(can | acted)).any()
-            expected += (acted | labels).sum(0)
+            expected += ask_and_charge(ledger, rng, envs, k)
         assert ledger.spent <= budget + 1e-9
         assert ledger.spent == pytest.approx(float(ledger.answers @ costs))
         assert ledger.answers.tolist() == expected.tolist()
