@@ -195,6 +195,17 @@ def train_reference(env_id: str, out: Path) -> dict[str, Any]:
     return record
 
 
+def needs_reference(out: Path, env_id: str) -> bool:
+    """Whether the reference learner must be trained (again): its teachers are not chosen yet
+    and its record or its checkpoints are missing (the checkpoints are not committed, so a
+    fresh checkout trains it again, on its own CPU, before choosing teachers)."""
+    if (out / "teachers" / f"{env_id}.json").exists():
+        return False
+    folder = out / "checkpoints" / env_id
+    has_checkpoints = folder.is_dir() and any(folder.glob("*.pt"))
+    return not ((out / "reference" / f"{env_id}.json").exists() and has_checkpoints)
+
+
 def nearest_checkpoint(checkpoints: list[list[float]], target: float) -> list[float]:
     """The ``[steps, return]`` checkpoint whose return is nearest ``target`` (the earliest on a
     tie).
@@ -239,6 +250,11 @@ def choose_teachers(env_id: str, out: Path, ppo_alone: float) -> dict[str, Any]:
     import torch
 
     torch.set_num_threads(1)
+    if needs_reference(out, env_id):
+        raise SystemExit(
+            f"{env_id}: the reference learner's checkpoints are missing from "
+            f"{out / 'checkpoints' / env_id}; run --phase reference first"
+        )
     reference = json.loads((out / "reference" / f"{env_id}.json").read_text())
     random_policy, top = reference["random_policy"], sweep_top(reference, ppo_alone)
     folder = out / "teachers" / env_id
@@ -573,7 +589,7 @@ def main() -> None:
     for phase in phases:
         if phase == "reference":
             for env_id in args.envs:
-                if not (args.out / "reference" / f"{env_id}.json").exists():
+                if needs_reference(args.out, env_id):
                     record = train_reference(env_id, args.out)
                     print(f"{env_id}: reference {record['checkpoints']}", flush=True)
         elif phase == "ppo":

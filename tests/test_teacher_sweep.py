@@ -74,3 +74,21 @@ def test_time_verdicts():
     assert sweep.reach_time([reach(8.0), never], -100.0, "steps") == (1, 8192.0)
     assert sweep.time_ratio((1, 8192.0), (0, 8192.0)) == np.inf
     assert sweep.time_ratio(sweep.reach_time([never], -100.0, "steps"), (1, np.inf)) == 1.0
+
+
+def test_the_reference_is_trained_again_where_its_checkpoints_are_missing(tmp_path):
+    """reference/ENV.json is committed, its checkpoints are not: a fresh checkout must train
+    the reference again before choosing teachers, and not once the teachers are chosen."""
+    (tmp_path / "reference").mkdir()
+    assert sweep.needs_reference(tmp_path, "Pendulum-v1")
+    (tmp_path / "reference" / "Pendulum-v1.json").write_text("{}")
+    assert sweep.needs_reference(tmp_path, "Pendulum-v1")  # the record alone is not enough
+    (tmp_path / "checkpoints" / "Pendulum-v1").mkdir(parents=True)
+    (tmp_path / "checkpoints" / "Pendulum-v1" / "0.pt").write_bytes(b"")
+    assert not sweep.needs_reference(tmp_path, "Pendulum-v1")
+    (tmp_path / "checkpoints" / "Pendulum-v1" / "0.pt").unlink()
+    (tmp_path / "teachers").mkdir()
+    (tmp_path / "teachers" / "Pendulum-v1.json").write_text("{}")
+    assert not sweep.needs_reference(tmp_path, "Pendulum-v1")  # the teachers are saved
+    with pytest.raises(SystemExit, match="run --phase reference first"):
+        sweep.choose_teachers("LunarLander-v3", tmp_path, -100.0)
