@@ -6,8 +6,10 @@ alone:
 
 1. **Reference** (``--phase reference``): the environment's reference learner (:data:`SWEEP`:
    SB3 PPO; DQN with rl-zoo's settings on MountainCar, where PPO never leaves the random policy's
-   level; SAC on Pendulum) is trained once with seed 0, a checkpoint every ``every`` steps and
-   one of the untrained network, and each checkpoint is scored greedily (``CHOICE_EPISODES``).
+   level; SAC on Pendulum; on DoorKey PPO on MiniGrid's partial view, as ``tlac teacher train
+   doorkey`` trains the paper's teacher) is trained once with seed 0, a checkpoint every
+   ``every`` steps and one of the untrained network, and each checkpoint is scored greedily
+   (``CHOICE_EPISODES``).
 2. **PPO alone** (``--phase ppo``): SB3 PPO's defaults, no teachers, every seed, the student's
    curve (greedy, ``--episodes`` episodes every ``--eval-every`` steps) and its final score
    over user_envs.EVAL_EPISODES episodes.
@@ -19,9 +21,11 @@ alone:
    whose return is nearest ``random + q (top - random)``; the adversarial one (``q < 0``) plays
    the action the ``q = 1`` network ranks worst (:class:`Adversarial`). Each is saved (its
    acting weights only) and scored alone over user_envs.EVAL_EPISODES.
-4. **Students** (``--phase students``): TL-AC's defaults, ``TLAC(env, teachers=...)``, for every
-   case of :data:`CASES` (each teacher beside a random one; q = 0 and 0.5 also alone), every
-   seed, scored as PPO alone.
+4. **Students** (``--phase students``): TL-AC's defaults, ``TLAC(env, teachers=...)`` (DoorKey:
+   ``TLAC("doorkey", ...)``, the domain's preset), for every case of :data:`CASES` (each teacher
+   beside a random one; q = 0 and 0.5 also alone), every seed, scored as PPO alone.
+
+Runs are 1e5 steps (DoorKey: 5e5, its curve evaluated five times as far apart).
 
 ``--phase all`` runs the four in order; every finished piece is a file under ``--out`` (a rerun
 skips it). ``--phase report`` writes ``report.md`` (the acceptance of issue 63 per environment
@@ -71,7 +75,13 @@ SWEEP: dict[str, Reference] = {
         "dqn", 120_000, 4000, user_envs.WEAK_TEACHERS["MountainCar-v0"]["kwargs"]
     ),
     "Pendulum-v1": Reference("sac", 20_000, 500),
+    # the paper's DoorKey teacher, trained as `tlac teacher train doorkey` trains it (SB3 PPO
+    # on MiniGrid's partial view, 8 environments: 1,024 steps a rollout), checkpoints 20 rollouts
+    # apart; its teachers advise the student, who sees the full grid, through the view
+    "DoorKey": Reference("ppo-partial", 1_000_000, 20_480),
 }
+DOORKEY = "DoorKey"
+"""tlac's DoorKey 7x7 domain (``TLAC("doorkey")``, its preset), at the issue's 5e5 steps."""
 QUALITIES = (0.0, 0.25, 0.5, 0.75, 1.0)
 TEACHERS = (*(f"q{q:g}" for q in QUALITIES), "adversarial")
 CASES = (*(f"{t}+random" for t in TEACHERS), "q0", "q0.5")
@@ -81,6 +91,17 @@ CHOICE_EPISODES = 10
 user_envs.EVAL_EPISODES)."""
 REFERENCE_SEED = 0
 BUDGET = 100_000
+BUDGETS = {DOORKEY: 500_000}
+"""Steps of a run where not :data:`BUDGET`."""
+
+
+def budget(env_id: str) -> int:
+    return BUDGETS.get(env_id, BUDGET)
+
+
+def make_env(env_id: str) -> Any:
+    """A fresh environment (DoorKey: the domain's, with its time limit)."""
+    return peers.make_env(env_id)
 
 
 # ------------------------------------------------------------------ teachers
@@ -89,6 +110,18 @@ def reference_model(env_id: str) -> Any:
     from tlac.teachers.sb3 import sb3_class
 
     spec = SWEEP[env_id]
+    if env_id == DOORKEY:
+        from stable_baselines3 import PPO
+        from stable_baselines3.common.env_util import make_vec_env
+
+        from tlac.domains import get_domain
+        from tlac.teacher_training import PPO_ENVS, PPO_HYPERPARAMS
+
+        domain, n_envs = PPO_ENVS["doorkey"]
+        vec = make_vec_env(get_domain(domain).make_env, n_envs=n_envs, seed=REFERENCE_SEED)
+        return PPO(
+            "MlpPolicy", vec, seed=REFERENCE_SEED, device="cpu", **PPO_HYPERPARAMS["doorkey"]
+        )
     return sb3_class(spec.algo)(
         "MlpPolicy", gym.make(env_id), seed=REFERENCE_SEED, device="cpu", **spec.kwargs
     )
@@ -102,13 +135,35 @@ def acting_state(model: Any) -> dict[str, Any]:
 
 
 def load_teacher_model(env_id: str, path: Path) -> Any:
-    """A reference learner with the acting weights saved at ``path``."""
+    """A reference learner with the acting weights saved at ``path`` (DoorKey: the PPO actor
+    as tlac ships it, a batched greedy teacher that reads the full grid through the partial
+    view it was trained on)."""
     import torch
 
+    if env_id == DOORKEY:
+        return doorkey_teacher(torch.load(path, weights_only=True))
     model = reference_model(env_id)
     model.policy.load_state_dict(torch.load(path, weights_only=True), strict=False)
     model.policy.set_training_mode(False)
     return model
+
+
+def doorkey_teacher(policy_state: dict[str, Any]) -> Any:
+    """tlac's PPO teacher (:class:`tlac.teachers.ppo.PPOActorTeacher`) from an SB3 PPO policy's
+    weights, trained on the partial view."""
+    from types import SimpleNamespace
+
+    from tlac.domains.doorkey.view import partial_view
+    from tlac.teachers.ppo import PPOActor, PPOActorTeacher, ppo_actor_state_dict
+
+    weights = ppo_actor_state_dict(SimpleNamespace(state_dict=lambda: policy_state))
+    obs_dim = weights["policy_net.0.weight"].shape[1]
+    widths = [
+        w.shape[0] for k, w in weights.items() if k.startswith("policy_net.") and "weight" in k
+    ]
+    actor = PPOActor(obs_dim, weights["action_net.weight"].shape[0], widths)
+    actor.load_state_dict(weights)
+    return PPOActorTeacher(actor, transform=partial_view)
 
 
 class Adversarial:
@@ -125,6 +180,10 @@ class Adversarial:
         import torch
 
         model, algo = self.model, type(self.model).__name__.lower()
+        if algo == "ppoactorteacher":  # DoorKey: the actor's scores on the view it reads
+            view = torch.as_tensor(model.transform(np.asarray(obs)), dtype=torch.float32)
+            with torch.no_grad():
+                return model.actor(view.reshape(len(view), -1)).argmin(dim=1).numpy()
         if algo == "sac":
             space = model.action_space
             return space.low + space.high - model.predict(obs, deterministic=True)[0]
@@ -138,11 +197,14 @@ class Adversarial:
 
 
 def greedy_act(model: Any) -> Any:
+    """A batch of observations -> the greedy actions of an SB3 model or of a tlac teacher."""
+    if type(model).__name__ == "PPOActorTeacher":
+        return model.predict
     return lambda batch: model.predict(batch, deterministic=True)[0]
 
 
 def score(act_batch: Any, env_id: str, episodes: int) -> float:
-    return float(user_envs.evaluate(act_batch, env_id, episodes).mean())
+    return float(peers.evaluate(act_batch, env_id, episodes).mean())
 
 
 def train_reference(env_id: str, out: Path) -> dict[str, Any]:
@@ -174,7 +236,7 @@ def train_reference(env_id: str, out: Path) -> dict[str, Any]:
     for path in sorted(folder.glob("*.pt"), key=lambda p: int(p.stem)):
         saved = load_teacher_model(env_id, path)
         checkpoints.append([int(path.stem), score(greedy_act(saved), env_id, CHOICE_EPISODES)])
-    space = gym.make(env_id).action_space
+    space = make_env(env_id).action_space
     random_policy = score(
         user_envs.one_by_one(user_envs.random_teacher(space, 12345)),
         env_id,
@@ -293,7 +355,7 @@ def case_teachers(env_id: str, case: str, out: Path, seed: int) -> list[Any]:
         teacher: Any = Adversarial(load_teacher_model(env_id, folder / "q1.pt"))
     else:
         teacher = load_teacher_model(env_id, folder / f"{name}.pt")
-    space = gym.make(env_id).action_space
+    space = make_env(env_id).action_space
     return [teacher, user_envs.random_teacher(space, seed)] if extra == "random" else [teacher]
 
 
@@ -311,19 +373,20 @@ def train_run(
 
     torch.set_num_threads(1)
     torch.manual_seed(seed)
-    curve = peers.Curve(env_id, every, episodes)
-    env = gym.make(env_id)
-    if case == "ppo":
-        from stable_baselines3 import PPO
-
-        model: Any = PPO("MlpPolicy", env, seed=seed, device="cpu")
-        model.learn(BUDGET, callback=peers.sb3_milestone_callback(curve))
+    steps = budget(env_id)
+    curve = peers.Curve(env_id, every * steps // BUDGET, episodes)
+    env = make_env(env_id)
+    if case == "ppo":  # SB3 PPO's defaults (DoorKey: its preset, as every DoorKey PPO here)
+        model: Any = peers.make_ppo(env_id, env, seed)
+        model.learn(steps, callback=peers.sb3_milestone_callback(curve))
         training = [info["r"] for info in model.ep_info_buffer]
     else:
         from tlac import TLAC
         from tlac.recording import find_episode_recorder
 
-        model = TLAC(env, teachers=case_teachers(env_id, case, out, seed), seed=seed)
+        teachers = case_teachers(env_id, case, out, seed)
+        # DoorKey by its name: the domain's preset, as a user of that domain gets it
+        model = TLAC("doorkey" if env_id == DOORKEY else env, teachers=teachers, seed=seed)
 
         def after_update(m: Any) -> bool:
             if curve.due(m.num_timesteps):
@@ -331,14 +394,14 @@ def train_run(
                 curve.record(m.num_timesteps, peers.greedy(m), returns)
             return True
 
-        model.learn(BUDGET, callback=after_update)
+        model.learn(steps, callback=after_update)
         training = list(find_episode_recorder(model.env).episode_returns)
-    final = user_envs.evaluate(peers.greedy(model), env_id, user_envs.EVAL_EPISODES)
+    final = peers.evaluate(peers.greedy(model), env_id, user_envs.EVAL_EPISODES)
     return {
         "env": env_id,
         "case": case,
         "seed": seed,
-        "steps": BUDGET,
+        "steps": steps,
         "curve": curve.points,
         "student_alone": float(final.mean()),
         "training_return": peers.recent_mean(training),
@@ -532,7 +595,7 @@ def plot(out: Path, figures: dict[str, tuple[dict, list[dict]]]) -> None:
         ax.axhline(teachers["ppo_alone"], color="black", linestyle="--", label="PPO alone")
         ax.set_title(env_id)
         ax.set_xlabel("teacher quality q (0: random policy, 1: top)")
-        ax.set_ylabel("return at 1e5 steps (greedy)")
+        ax.set_ylabel(f"return at {budget(env_id):.0e} steps (greedy)".replace("e+0", "e"))
     axes[0][0].legend(fontsize=7, loc="best")
     fig.tight_layout()
     fig.savefig(out / "teacher_sweep.png", dpi=90)

@@ -92,3 +92,52 @@ def test_the_reference_is_trained_again_where_its_checkpoints_are_missing(tmp_pa
     assert not sweep.needs_reference(tmp_path, "Pendulum-v1")  # the teachers are saved
     with pytest.raises(SystemExit, match="run --phase reference first"):
         sweep.choose_teachers("LunarLander-v3", tmp_path, -100.0)
+
+
+def test_a_doorkey_teacher_acts_as_the_ppo_it_was_saved_from_on_its_view(tmp_path):
+    """DoorKey's reference is SB3 PPO on the partial view (`tlac teacher train doorkey`'s
+    recipe); its saved weights make tlac's PPO teacher, which reads the student's full grid
+    through that view and plays the PPO's greedy action there, and the adversarial one its
+    least likely action."""
+    from tlac.domains.doorkey.view import partial_view
+
+    model = sweep.reference_model(sweep.DOORKEY)
+    with torch.no_grad():
+        for p in model.policy.parameters():
+            p.add_(0.1 * torch.randn_like(p))
+    torch.save(sweep.acting_state(model), tmp_path / "t.pt")
+    teacher = sweep.load_teacher_model(sweep.DOORKEY, tmp_path / "t.pt")
+    env = sweep.make_env(sweep.DOORKEY)
+    grids = []
+    for seed in range(8):
+        obs, _ = env.reset(seed=seed)
+        grids.append(obs)
+    grids = np.stack(grids)
+    view = partial_view(grids)
+    expected = model.predict(view, deterministic=True)[0]
+    np.testing.assert_array_equal(sweep.greedy_act(teacher)(grids), expected)
+    with torch.no_grad():
+        logits = model.policy.get_distribution(model.policy.obs_to_tensor(view)[0])
+        worst = logits.distribution.logits.argmin(dim=1).numpy()
+    np.testing.assert_array_equal(sweep.Adversarial(teacher).predict(grids), worst)
+    assert sweep.budget(sweep.DOORKEY) == 500_000 and sweep.budget("Acrobot-v1") == 100_000
+
+
+@pytest.mark.slow  # ~10 s: two PPO trainings and a student
+def test_doorkey_runs_through_every_phase_on_a_tiny_budget(tmp_path, monkeypatch):
+    """The reference (checkpoints of PPO on the partial view), the teachers chosen from them,
+    PPO alone and a student with the domain's preset, at a few thousand steps."""
+    monkeypatch.setitem(sweep.SWEEP, sweep.DOORKEY, sweep.Reference("ppo-partial", 2048, 1024))
+    monkeypatch.setitem(sweep.BUDGETS, sweep.DOORKEY, 2048)
+    monkeypatch.setattr(sweep, "CHOICE_EPISODES", 2)
+    monkeypatch.setattr(sweep.user_envs, "EVAL_EPISODES", 2)
+    for sub in ("reference", "teachers", "runs"):
+        (tmp_path / sub).mkdir()
+    record = sweep.train_reference(sweep.DOORKEY, tmp_path)
+    assert [c[0] for c in record["checkpoints"]] == [0, 1024, 2048]
+    assert all(0.0 <= c[1] <= 1.0 for c in record["checkpoints"])
+    chosen = sweep.choose_teachers(sweep.DOORKEY, tmp_path, ppo_alone=0.0)
+    assert set(chosen["teachers"]) == set(sweep.TEACHERS)
+    for case in ("ppo", "adversarial+random"):
+        run = sweep.train_run(sweep.DOORKEY, case, 0, tmp_path, every=10**6, episodes=2)
+        assert run["steps"] == 2048 and 0.0 <= run["student_alone"] <= 1.0
