@@ -204,10 +204,11 @@ class Curve:
     def __init__(self, case: str, every: int, episodes: int):
         self.case, self.every, self.episodes = case, every, episodes
         self.next = every
-        # [steps, student alone, training seconds, training return (None: no episode yet)]
+        # [steps, student alone, training seconds, training return (None: no episode yet),
+        #  training CPU seconds of this process (runs from 2026-11-29 on)]
         self.points: list[list[Any]] = []
-        self.eval_seconds = 0.0
-        self.start = time.perf_counter()
+        self.eval_seconds = self.eval_cpu = 0.0
+        self.start, self.cpu_start = time.perf_counter(), time.process_time()
 
     def due(self, steps: int) -> bool:
         return steps >= self.next
@@ -217,11 +218,17 @@ class Curve:
     ) -> None:
         """Score the student now (greedy), beside the training episodes' returns so far
         (``training``, oldest first), and move the next evaluation past ``steps``."""
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         score = float(evaluate(act_batch, self.case, self.episodes).mean())
         self.eval_seconds += time.perf_counter() - t0
+        self.eval_cpu += time.process_time() - c0
         train_seconds = time.perf_counter() - self.start - self.eval_seconds
-        self.points.append([int(steps), score, round(train_seconds, 2), recent_mean(training)])
+        # the CPU seconds do not count what other work on the machine took (the wall clock
+        # does): the time measure of runs made side by side
+        train_cpu = time.process_time() - self.cpu_start - self.eval_cpu
+        self.points.append(
+            [int(steps), score, round(train_seconds, 2), recent_mean(training), round(train_cpu, 2)]
+        )
         while self.next <= steps:
             self.next += self.every
 

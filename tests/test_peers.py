@@ -200,7 +200,8 @@ def test_every_learner_records_its_training_return_beside_the_student_alone():
     for learner in peers.LEARNERS:
         result = peers.train_one("CartPole-v1", learner, 0, args, "cartpole_pd")
         first[learner] = result["curve"][0]
-        assert all(len(point) == 4 for point in result["curve"])
+        assert all(len(point) == 5 for point in result["curve"])
+        assert all(0 < point[4] <= point[2] * 1.5 for point in result["curve"])  # CPU seconds
     assert first["dagger"][3] > 400 and first["bc-ppo"][3] > 400
     assert first["ppo"][3] < 100
     assert first["tlac"][3] is not None

@@ -141,3 +141,14 @@ def test_doorkey_runs_through_every_phase_on_a_tiny_budget(tmp_path, monkeypatch
     for case in ("ppo", "adversarial+random"):
         run = sweep.train_run(sweep.DOORKEY, case, 0, tmp_path, every=10**6, episodes=2)
         assert run["steps"] == 2048 and 0.0 <= run["student_alone"] <= 1.0
+
+
+def test_cpu_seconds_are_read_where_every_run_has_them():
+    """Curve points from 2026-11-29 on carry the training process's CPU seconds (fifth column):
+    the verdict reads those when every run has them, the wall clock's otherwise."""
+    new = {"curve": [[4096, -400.0, 9.0, None, 3.0], [8192, -90.0, 20.0, -95.0, 6.5]]}
+    old = {"curve": [[4096, -400.0, 9.0, None], [8192, -90.0, 20.0, -95.0]]}
+    assert sweep.time_unit([new, new]) == "CPU seconds"
+    assert sweep.time_unit([new, old]) == "seconds"
+    assert sweep.reach_time([new], -100.0, "CPU seconds") == (0, 6.5)
+    assert sweep.reach_time([new, old], -100.0, "seconds") == (0, 20.0)
