@@ -17,8 +17,6 @@ import sys
 import time
 from pathlib import Path
 
-import gymnasium as gym
-
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import teacher_sweep  # (the sweep's teachers)
 
@@ -28,16 +26,7 @@ def steps_per_cpu_second(env_id: str, case: str, steps: int, seed: int, out: Pat
     import torch
 
     torch.set_num_threads(1)
-    env = gym.make(env_id)
-    if case == "ppo":
-        from stable_baselines3 import PPO
-
-        model = PPO("MlpPolicy", env, seed=seed, device="cpu")
-    else:
-        from tlac import TLAC
-
-        teachers = teacher_sweep.case_teachers(env_id, case, out, seed)
-        model = TLAC(env, teachers=teachers, seed=seed)
+    model = teacher_sweep.make_learner(env_id, case, seed, out)
     start = time.process_time()
     model.learn(steps)
     return model.num_timesteps / (time.process_time() - start)

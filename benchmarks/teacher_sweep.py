@@ -364,6 +364,19 @@ def run_path(out: Path, env_id: str, case: str, seed: int) -> Path:
     return out / "runs" / f"{env_id}__{case}__seed{seed}.json"
 
 
+def make_learner(env_id: str, case: str, seed: int, out: Path) -> Any:
+    """The learner of a run, untrained: ``ppo``, SB3 PPO's defaults (DoorKey: its ``ppo``
+    preset, as every DoorKey PPO of this project), or TL-AC's default with the case's teachers
+    (DoorKey by its name: the domain's preset, as a user of that domain gets it)."""
+    env = make_env(env_id)
+    if case == "ppo":
+        return peers.make_ppo(env_id, env, seed)
+    from tlac import TLAC
+
+    teachers = case_teachers(env_id, case, out, seed)
+    return TLAC("doorkey" if env_id == DOORKEY else env, teachers=teachers, seed=seed)
+
+
 def train_run(
     env_id: str, case: str, seed: int, out: Path, every: int, episodes: int
 ) -> dict[str, Any]:
@@ -375,18 +388,12 @@ def train_run(
     torch.manual_seed(seed)
     steps = budget(env_id)
     curve = peers.Curve(env_id, every * steps // BUDGET, episodes)
-    env = make_env(env_id)
-    if case == "ppo":  # SB3 PPO's defaults (DoorKey: its preset, as every DoorKey PPO here)
-        model: Any = peers.make_ppo(env_id, env, seed)
+    model = make_learner(env_id, case, seed, out)
+    if case == "ppo":
         model.learn(steps, callback=peers.sb3_milestone_callback(curve))
         training = [info["r"] for info in model.ep_info_buffer]
     else:
-        from tlac import TLAC
         from tlac.recording import find_episode_recorder
-
-        teachers = case_teachers(env_id, case, out, seed)
-        # DoorKey by its name: the domain's preset, as a user of that domain gets it
-        model = TLAC("doorkey" if env_id == DOORKEY else env, teachers=teachers, seed=seed)
 
         def after_update(m: Any) -> bool:
             if curve.due(m.num_timesteps):
