@@ -14,8 +14,8 @@ where its answer is used, and each answer is paid for:
 * **Availability**: each teacher is present in an episode with its probability, drawn per
   episode and environment from this module's own random stream (acting is otherwise
   untouched); a probability may change with the step (a schedule or a function:
-  tlac.presets.make_availability), and one of 0 means the teacher has left. An absent teacher can neither be chosen (its high-level logit is masked) nor
-  give a label.
+  tlac.presets.make_availability), and one of 0 means the teacher has left. An absent
+  teacher can neither be chosen (its high-level logit is masked) nor give a label.
 * **Asking rules** (:data:`ASK_RULES`) decide, state by state, whether the student asks at all
   (:func:`ask_gate`): the baselines of the action-advising literature, Torrey & Taylor 2013
   ("Teaching on a Budget") and Amir et al. 2016 ("Interactive Teaching Strategies for Agent
