@@ -484,12 +484,15 @@ def training_at_end(run: dict) -> float:
     return training_at(run["curve"], run["steps"])
 
 
+def first_reach_point(curve: list[list[Any]], threshold: float) -> list[Any] | None:
+    """The first evaluation (a :class:`Curve` point) at or above ``threshold``."""
+    return next((point for point in curve if point[1] >= threshold), None)
+
+
 def first_reach(curve: list[list[float]], threshold: float) -> tuple[float, float] | None:
     """(steps, training seconds) of the first evaluation at or above ``threshold``."""
-    for steps, score, seconds, *_ in curve:  # (runs before 2026-11-28: no training return)
-        if score >= threshold:
-            return steps, seconds
-    return None
+    point = first_reach_point(curve, threshold)
+    return None if point is None else (point[0], point[2])
 
 
 def _mean_std(values: list[float], decimals: int = 1) -> str:

@@ -151,12 +151,10 @@ def load_teacher_model(env_id: str, path: Path) -> Any:
 def doorkey_teacher(policy_state: dict[str, Any]) -> Any:
     """tlac's PPO teacher (:class:`tlac.teachers.ppo.PPOActorTeacher`) from an SB3 PPO policy's
     weights, trained on the partial view."""
-    from types import SimpleNamespace
-
     from tlac.domains.doorkey.view import partial_view
     from tlac.teachers.ppo import PPOActor, PPOActorTeacher, ppo_actor_state_dict
 
-    weights = ppo_actor_state_dict(SimpleNamespace(state_dict=lambda: policy_state))
+    weights = ppo_actor_state_dict(policy_state)
     obs_dim = weights["policy_net.0.weight"].shape[1]
     widths = [
         w.shape[0] for k, w in weights.items() if k.startswith("policy_net.") and "weight" in k
@@ -473,8 +471,8 @@ def reach_time(runs: list[dict], threshold: float, unit: str) -> tuple[int, floa
     """(seeds that never reach ``threshold``, mean ``unit`` -- :data:`CURVE_COLUMNS`: "steps",
     "seconds" or "CPU seconds" of training -- at which the others first do; inf if none)."""
     column = CURVE_COLUMNS[unit]
-    hits = [next((p[column] for p in r["curve"] if p[1] >= threshold), None) for r in runs]
-    hits = [h for h in hits if h is not None]
+    points = (peers.first_reach_point(r["curve"], threshold) for r in runs)
+    hits = [p[column] for p in points if p is not None]
     return len(runs) - len(hits), float(np.mean(hits)) if hits else float("inf")
 
 

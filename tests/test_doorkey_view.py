@@ -80,7 +80,7 @@ def test_exported_ppo_actor_equals_sb3_greedy_predict(tmp_path) -> None:
     env = get_domain("doorkey-partial").make_env()
     model = PPO("MlpPolicy", env, seed=0, device="cpu", policy_kwargs=dict(net_arch=[16, 16]))
     actor = PPOActor(147, 6, [16, 16])
-    actor.load_state_dict(ppo_actor_state_dict(model.policy))
+    actor.load_state_dict(ppo_actor_state_dict(model.policy.state_dict()))
     probe = np.stack([env.observation_space.sample() for _ in range(64)])
     np.testing.assert_array_equal(
         PPOActorTeacher(actor).predict(probe),

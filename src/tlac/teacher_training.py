@@ -419,7 +419,7 @@ def train_ppo_teacher(
     obs_dim = int(np.prod(env.observation_space.shape))
     n_actions = int(env.action_space.n)
     actor = PPOActor(obs_dim, n_actions, net_arch)
-    actor.load_state_dict(ppo_actor_state_dict(model.policy))
+    actor.load_state_dict(ppo_actor_state_dict(model.policy.state_dict()))
     # the rebuilt actor agrees with SB3's greedy predict on the view it was trained on
     probe = np.stack([env.observation_space.sample() for _ in range(16)])
     teacher = PPOActorTeacher(actor)

@@ -15,7 +15,7 @@ something else.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -51,10 +51,11 @@ class PPOActor(nn.Module):
         return self.action_net(self.policy_net(obs))
 
 
-def ppo_actor_state_dict(policy: nn.Module) -> dict[str, torch.Tensor]:
-    """The weights :class:`PPOActor` needs, from an SB3 ``model.policy`` (MlpPolicy)."""
+def ppo_actor_state_dict(policy_state: Mapping[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+    """The weights :class:`PPOActor` needs, from the state dict of an SB3 ``model.policy``
+    (MlpPolicy), live or saved."""
     out: dict[str, torch.Tensor] = {}
-    for key, value in policy.state_dict().items():
+    for key, value in policy_state.items():
         if key.startswith("mlp_extractor.policy_net."):
             out[key.removeprefix("mlp_extractor.")] = value.detach().clone().float()
         elif key.startswith("action_net."):
