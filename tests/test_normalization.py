@@ -91,14 +91,21 @@ def test_normalize_obs_refuses_one_hot_categories() -> None:
 
 
 def test_normalize_obs_auto_normalises_raw_observations_only() -> None:
-    """``auto`` (presets/default.yaml): on for a Box read raw, off (not refused) where the
-    observations are one-hot encoded, so the same preset serves every space."""
+    """``auto`` (presets/default.yaml): on for a Box read raw unless its bounds declare every
+    coordinate on a unit scale, off (not refused) where the observations are one-hot encoded,
+    so the same preset serves every space."""
     box = TLAC(gym.make("MountainCar-v0"), teachers=[lambda obs: 0], normalize_obs="auto")
     assert box.nets.normalizer is not None and box.nets.normalizer.normalize_obs
     grid = TLAC(gym.make("FrozenLake-v1"), teachers=[lambda obs: 0], normalize_obs="auto")
     assert grid.nets.normalizer is None
     with pytest.raises(ConfigError, match="normalize_obs needs raw observations"):
         TLAC(gym.make("FrozenLake-v1"), teachers=[lambda obs: 0], normalize_obs=True)
+    # a Box whose bounds declare unit-scale coordinates stays raw (Pendulum: +-1, +-1, +-8);
+    # true still normalises it
+    pendulum = TLAC(gym.make("Pendulum-v1"), teachers=[], normalize_obs="auto")
+    assert pendulum.nets.normalizer is None
+    forced = TLAC(gym.make("Pendulum-v1"), teachers=[], normalize_obs=True)
+    assert forced.nets.normalizer is not None and forced.nets.normalizer.normalize_obs
     # NumPy's true is true, not silently off
     on = TLAC(gym.make("MountainCar-v0"), teachers=[lambda obs: 0], normalize_obs=np.True_)
     assert on.nets.normalizer is not None and on.nets.normalizer.normalize_obs
@@ -138,3 +145,21 @@ def test_one_row_at_a_time_adds_to_the_statistics_bit_for_bit_as_sb3(dtype: type
     assert ours.count == sb3.count
     assert ours.mean.tobytes() == sb3.mean.tobytes()
     assert ours.var.tobytes() == sb3.var.tobytes()
+
+
+@pytest.mark.parametrize(
+    ("low", "high", "raw"),
+    [
+        ([-1.0, -1.0, -8.0], [1.0, 1.0, 8.0], True),  # Pendulum: half-ranges 1, 1, 8
+        ([-10.0], [10.0], True),  # the upper end of the unit scale is in it
+        ([0.0], [1.0], False),  # half-range 0.5: narrower than the unit scale
+        ([-1.2, -0.07], [0.6, 0.07], False),  # MountainCar's velocity
+        ([-1.0, -28.27], [1.0, 28.27], False),  # Acrobot's second joint speed
+        ([-4.8, -np.inf], [4.8, np.inf], False),  # CartPole's undeclared velocity
+    ],
+)
+def test_declares_unit_scale_reads_every_coordinates_half_range(low, high, raw) -> None:
+    from tlac.algorithms.normalization import declares_unit_scale
+
+    space = gym.spaces.Box(np.array(low, dtype=np.float32), np.array(high, dtype=np.float32))
+    assert declares_unit_scale(space) is raw

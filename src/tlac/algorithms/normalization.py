@@ -24,6 +24,34 @@ from stable_baselines3.common.running_mean_std import RunningMeanStd
 EPSILON = 1e-8
 
 
+UNIT_SCALE = (1.0, 10.0)
+"""The half-ranges (``(high - low) / 2``) a Box's declared bounds must all fall within for
+``normalize_obs: auto`` to leave its observations raw: every coordinate already on the scale a
+freshly initialised network reads well."""
+
+
+def declares_unit_scale(space: Any) -> bool:
+    """Whether a Box observation space declares every coordinate's range, each half-range within
+    :data:`UNIT_SCALE`, so that ``normalize_obs: auto`` reads it raw (issue 63: running
+    normalisation cost PPO on Pendulum, measured in docs/graduation.md). Unbounded coordinates
+    (CartPole's velocities), narrow ones (MountainCar's +-0.07) and wide ones (Acrobot's
+    +-28.3) are normalised.
+
+    >>> from gymnasium.spaces import Box
+    >>> declares_unit_scale(Box(np.array([-1, -1, -8.0]), np.array([1, 1, 8.0])))   # Pendulum
+    True
+    >>> declares_unit_scale(Box(np.array([-1.2, -0.07]), np.array([0.6, 0.07])))   # MountainCar
+    False
+    >>> declares_unit_scale(Box(-np.inf, np.inf, (4,)))
+    False
+    """
+    low, high = np.asarray(space.low, dtype=np.float64), np.asarray(space.high, dtype=np.float64)
+    if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high))):
+        return False
+    half_range = (high - low) / 2.0
+    return bool(np.all((half_range >= UNIT_SCALE[0]) & (half_range <= UNIT_SCALE[1])))
+
+
 def rms_state(rms: RunningMeanStd) -> dict[str, Any]:
     """SB3 ``RunningMeanStd`` statistics as tensors and a float: a checkpoint of them loads
     with ``weights_only=True``."""

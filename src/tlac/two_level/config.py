@@ -279,7 +279,9 @@ class TLACConfig:
     """Normalise the networks' observations by their running mean and std (SB3's VecNormalize,
     clipped to +-10), inside TL-AC: teachers still see raw observations. true: refused where
     observations are one-hot encoded or images (categories and pixels have no scale); auto:
-    on where the networks read the observations raw, off elsewhere (presets/default.yaml)."""
+    on where the networks read the observations raw, except a Box whose bounds declare every
+    coordinate's half-range between 1 and 10 (Pendulum's; ``declares_unit_scale``), off
+    elsewhere (presets/default.yaml)."""
     normalize_reward: bool = False
     """Divide training rewards by the running std of the discounted return (SB3's
     VecNormalize); logged returns stay raw."""

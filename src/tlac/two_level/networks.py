@@ -32,7 +32,7 @@ from tlac.algorithms.nets import (
     np_log_softmax,
     np_sample_categorical,
 )
-from tlac.algorithms.normalization import Normalizer
+from tlac.algorithms.normalization import Normalizer, declares_unit_scale
 from tlac.algorithms.obs_spaces import ObsEncoder, ObsLayout, ObsPolicy, make_layout
 from tlac.errors import ConfigError
 from tlac.memory import FLOAT_BYTES, check_fits, mlp_params, network_bytes
@@ -139,8 +139,13 @@ class Networks:
             else self.encoder.parameters()
         )
         net_in = self.obs_dim if self.encoder is None else self.encoder.out_dim
-        # "auto": normalise what the networks read raw, nothing that is encoded
-        normalize_obs = always_normalize or (cfg.normalize_obs == "auto" and self.encoder is None)
+        # "auto": normalise what the networks read raw, nothing that is encoded, and no Box
+        # whose bounds already declare every coordinate on a unit scale (Pendulum's)
+        normalize_obs = always_normalize or (
+            cfg.normalize_obs == "auto"
+            and self.encoder is None
+            and not (self.obs_layout is None and declares_unit_scale(obs_space))
+        )
         self.normalizer: Normalizer | None = None
         if normalize_obs or cfg.normalize_reward:
             self.normalizer = Normalizer(
