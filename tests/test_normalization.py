@@ -84,6 +84,18 @@ def test_teachers_see_raw_observations_and_the_statistics_are_saved(tmp_path) ->
     np.testing.assert_array_equal(loaded.nets.normalizer.obs_rms.mean, mean)
 
 
+def test_a_model_saved_normalised_is_not_loaded_raw(tmp_path) -> None:
+    """A Pendulum model saved when ``auto`` normalised it (before 2026-11-29) holds statistics
+    that ``auto`` no longer builds: one error with the way to load it, not a student reading
+    raw observations with networks trained on normalised ones."""
+    model = TLAC(gym.make("Pendulum-v1"), teachers=[], seed=0, normalize_obs=True)
+    path = model.save(tmp_path / "m")
+    with pytest.raises(ConfigError, match=r"custom_objects=\{'normalize_obs': True\}"):
+        TLAC.load(path, custom_objects={"normalize_obs": "auto"})
+    loaded = TLAC.load(path, custom_objects={"normalize_obs": True})
+    assert loaded.nets.normalizer is not None
+
+
 def test_normalize_obs_refuses_one_hot_categories() -> None:
     with pytest.raises(ConfigError, match="normalize_obs needs raw observations"):
         TLAC("doorkey", normalize_obs=True, obs_encoding="onehot")

@@ -205,7 +205,8 @@ def greedy(m: TLAC, obs: np.ndarray) -> np.ndarray:
 @pytest.mark.parametrize("env_id", ["CartPole-v1", "Pendulum-v1"])
 def test_get_and_set_parameters_round_trip(tmp_path, env_id: str) -> None:
     torch.set_num_threads(1)
-    make = lambda seed: TLAC(gym.make(env_id), seed=seed, **SMALL)  # noqa: E731
+    # normalised (auto reads Pendulum's unit-scale Box raw), so the statistics travel too
+    make = lambda seed: TLAC(gym.make(env_id), seed=seed, normalize_obs=True, **SMALL)  # noqa: E731
     obs = np.stack([gym.make(env_id).observation_space.sample() for _ in range(32)])
     trained = make(0).learn(64)
     trained.deployed = trained.nets.snapshot_student(

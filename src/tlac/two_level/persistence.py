@@ -282,6 +282,12 @@ def load_parameters(model: Any, params: dict[str, Any], where: str) -> None:
             model.nets.log_std.copy_(params["log_std"])
     if "optimizer" in params:
         model.optimizer.load_state_dict(params["optimizer"])
+    if model.nets.normalizer is None and params.get("normalizer") is not None:
+        raise ConfigError(
+            f"{where}: normalisation statistics, which this model's settings do not use (since "
+            "2026-11-29 normalize_obs 'auto' reads a Box of unit-scale bounds raw); load it with "
+            "custom_objects={'normalize_obs': True}"
+        )
     if model.nets.normalizer is not None and "normalizer" in params:
         if params["normalizer"] is None:
             raise ConfigError(
