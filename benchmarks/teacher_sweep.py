@@ -680,13 +680,22 @@ def main() -> None:
             run_all([(e, "ppo", s) for e in args.envs for s in args.seeds], args)
         elif phase == "teachers":
             for env_id in args.envs:
+                if (args.out / "teachers" / f"{env_id}.json").exists():
+                    continue
                 ppo = ppo_alone(args.out, env_id, args.seeds)
-                if ppo is None or (args.out / "teachers" / f"{env_id}.json").exists():
+                if ppo is None:  # the teachers' qualities are measured against its mean
+                    print(
+                        f"{env_id}: no teachers yet: PPO alone has not run every seed "
+                        f"{args.seeds} (--phase ppo)",
+                        flush=True,
+                    )
                     continue
                 record = choose_teachers(env_id, args.out, ppo)
                 print(f"{env_id}: teachers {record['teachers']}", flush=True)
         elif phase == "students":
             ready = [e for e in args.envs if (args.out / "teachers" / f"{e}.json").exists()]
+            for env_id in sorted(set(args.envs) - set(ready)):
+                print(f"{env_id}: no students yet: its teachers are not chosen (--phase teachers)")
             run_all([(e, c, s) for s in args.seeds for e in ready for c in args.cases], args)
         else:
             table = report(args.out, args.envs, args.seeds)

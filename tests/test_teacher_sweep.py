@@ -152,3 +152,20 @@ def test_cpu_seconds_are_read_where_every_run_has_them():
     assert sweep.time_unit([new, old]) == "seconds"
     assert sweep.reach_time([new], -100.0, "CPU seconds") == (0, 6.5)
     assert sweep.reach_time([new, old], -100.0, "seconds") == (0, 20.0)
+
+
+def test_teachers_and_students_phases_say_why_they_skip_an_environment(
+    tmp_path, monkeypatch, capsys
+):
+    """PPO alone with one seed of five: no teachers are chosen (their qualities are measured
+    against its 5-seed mean) and no students run, each said in one line, not a silent 0."""
+    (tmp_path / "runs").mkdir()
+    (tmp_path / "runs" / "Pendulum-v1__ppo__seed0.json").write_text('{"student_alone": -1000.0}')
+    for phase in ("teachers", "students"):
+        argv = ["teacher_sweep.py", "--envs", "Pendulum-v1", "--phase", phase]
+        monkeypatch.setattr(sys, "argv", [*argv, "--out", str(tmp_path)])
+        sweep.main()
+    out = capsys.readouterr().out
+    assert "Pendulum-v1: no teachers yet: PPO alone has not run every seed [0, 1, 2, 3, 4]" in out
+    assert "Pendulum-v1: no students yet: its teachers are not chosen" in out
+    assert not (tmp_path / "teachers" / "Pendulum-v1.json").exists()
