@@ -270,6 +270,13 @@ def parameters(model: Any) -> dict[str, Any]:
 def load_parameters(model: Any, params: dict[str, Any], where: str) -> None:
     """Load the :data:`PARAMETERS` that ``params`` holds (a model file's, or
     ``get_parameters``'); ``where``: what errors name (a file, or the call)."""
+    # (checked before anything is loaded, so a refused call leaves the model as it was)
+    if model.nets.normalizer is None and params.get("normalizer") is not None:
+        raise ConfigError(
+            f"{where}: normalisation statistics, which this model's settings do not use (since "
+            "2026-11-29 normalize_obs 'auto' reads a Box of unit-scale bounds raw); load it with "
+            "custom_objects={'normalize_obs': True}, or build the model with normalize_obs=True"
+        )
     if "net" in params:  # checkpoints before the per-layer masks stored all-ones masks
         known = model.nets.net.state_dict()
         model.nets.net.load_state_dict({k: v for k, v in params["net"].items() if k in known})
@@ -282,12 +289,6 @@ def load_parameters(model: Any, params: dict[str, Any], where: str) -> None:
             model.nets.log_std.copy_(params["log_std"])
     if "optimizer" in params:
         model.optimizer.load_state_dict(params["optimizer"])
-    if model.nets.normalizer is None and params.get("normalizer") is not None:
-        raise ConfigError(
-            f"{where}: normalisation statistics, which this model's settings do not use (since "
-            "2026-11-29 normalize_obs 'auto' reads a Box of unit-scale bounds raw); load it with "
-            "custom_objects={'normalize_obs': True}"
-        )
     if model.nets.normalizer is not None and "normalizer" in params:
         if params["normalizer"] is None:
             raise ConfigError(
