@@ -8,9 +8,12 @@ teacher about as good as the untrained student is judged to help in the end. Her
 is the mean of the first ``min_episodes`` solo returns, and the test is two-sample: the led mean
 must beat it by 2 standard errors of the difference. Trains one sweep case as the sweep builds
 it (benchmarks/teacher_sweep.make_learner) and prints the student alone over the user suite's
-30 evaluation episodes:
+30 evaluation episodes; ``--judgement default`` trains the default instead, and ``--trace``
+prints the audition's state every 8,192 steps (its floor, the recent solo mean, each teacher's
+led mean and count, and whether no teacher helps):
 
     .venv/bin/python lab/first_floor_probe.py Pendulum-v1 q0+random 1
+    .venv/bin/python lab/first_floor_probe.py Pendulum-v1 q0+random 1 --judgement default --trace
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
@@ -66,18 +70,36 @@ def judge_against_first_solo_returns() -> None:
     graduation.SoloEpisodes.no_teacher_helps = property(no_teacher_helps)
 
 
+def trace(model: Any) -> bool:
+    """After an update: the audition's state, every 8,192 steps (reads only)."""
+    solo = model.solo
+    if model.num_timesteps % 8192 < model.config.n_steps:
+        led = solo.led_sums / np.maximum(solo.led_counts, 1)
+        recent = float(np.mean(solo.solo_returns)) if solo.solo_returns else float("nan")
+        print(
+            f"{model.num_timesteps}: floor {solo.floor:.1f}, solo {recent:.1f}, led "
+            f"{led.round(1).tolist()} x {solo.led_counts.tolist()}, "
+            f"no teacher helps: {solo.no_teacher_helps}",
+            flush=True,
+        )
+    return True
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("env")
     parser.add_argument("case")
     parser.add_argument("seed", type=int)
+    parser.add_argument("--judgement", choices=["first", "default"], default="first")
+    parser.add_argument("--trace", action="store_true")
     args = parser.parse_args()
-    judge_against_first_solo_returns()
+    if args.judgement == "first":
+        judge_against_first_solo_returns()
     torch.set_num_threads(1)
     torch.manual_seed(args.seed)
     out = ROOT / "results" / "teacher-sweep"
     model = teacher_sweep.make_learner(args.env, args.case, args.seed, out)
-    model.learn(teacher_sweep.budget(args.env))
+    model.learn(teacher_sweep.budget(args.env), callback=trace if args.trace else None)
     alone = peers.evaluate(peers.greedy(model), args.env, user_envs.EVAL_EPISODES)
     print(f"{args.env} {args.case} seed {args.seed}: student alone {alone.mean():.1f}", flush=True)
 
