@@ -379,21 +379,38 @@ def advice_actions(
     return check_actions(teacher.name, actions, action_space, n), information
 
 
+AGREEMENT_MARGIN = 2.0
+"""Standard errors by which a Box teacher's two answers must agree more than a uniformly random
+teacher's would, for its differing rows to carry any information
+(:func:`self_agreement_information`)."""
+
+
 def self_agreement_information(
     first: np.ndarray, second: np.ndarray, action_space: gym.spaces.Box
 ) -> np.ndarray:
     """``(n,)``: how much a teacher's Box advice means, from two answers for the same states.
     Rows where the answers are equal (a deterministic teacher) get 1. The differing rows share
-    ``1 - mean ||a1 - a2||^2 / E ||u1 - u2||^2``, clipped to [0, 1], with ``u1, u2`` independent
-    uniform draws from the action box (``E = 2 * sum (high - low)^2 / 12``): 0 for a uniformly
-    random teacher, ``1 - sigma^2 / var(u)`` for one that adds unclipped Gaussian noise of
-    standard deviation ``sigma``. An unbounded box has no uniform draw to compare with: 1.
-    Answers drawn from a few values (a teacher choosing among fixed torques) can coincide by
-    chance, and rows where they do read as meant.
+    ``1 - mean ||a1 - a2||^2 / E ||u1 - u2||^2``, with ``u1, u2`` independent uniform draws
+    from the action box (``E = sum (high - low)^2 / 6``): ``1 - sigma^2 / var(u)`` for a
+    teacher that adds unclipped Gaussian noise of standard deviation ``sigma``, and 0 for a
+    uniformly random one. 0 also unless it is above 0 by ``AGREEMENT_MARGIN`` standard errors
+    of a uniformly random teacher's mean gap over those rows (``sd ||u1 - u2||^2 =
+    sqrt(sum 7 (high - low)^4 / 180)``): estimated on a rollout's 2,048 rows, a random
+    teacher's value is above 0 in half of them (up to 0.08), and where it is the only teacher
+    the high level trusts, the imitation scales that crumb up to the state's whole trust
+    (tlac.two_level.losses.reweighted_trust) and copies the mean of two random actions: on
+    Pendulum about zero torque, worse than random (issue 63). So a few differing rows cannot
+    tell a noisy teacher from a random one (fewer than 6 never can). An unbounded box has no
+    uniform draw to compare with: 1. Answers drawn from a few values (a teacher choosing
+    among fixed torques) can coincide by chance, and rows where they do read as meant.
 
     >>> box = gym.spaces.Box(-1.0, 1.0, (1,))
-    >>> self_agreement_information(np.array([[0.5], [0.2]]), np.array([[0.5], [0.4]]), box).round(2)
-    array([1.  , 0.94])
+    >>> first = np.array([[0.5], [0.2], [0.1], [-0.3], [0.7], [0.0], [-0.6], [0.4]])
+    >>> close = first + np.array([[0.0], [0.2], [-0.2], [0.2], [-0.2], [0.2], [-0.2], [0.2]])
+    >>> self_agreement_information(first, close, box).round(2)   # 7 rows differ by 0.2
+    array([1.  , 0.94, 0.94, 0.94, 0.94, 0.94, 0.94, 0.94])
+    >>> self_agreement_information(first[:3], close[:3], box)   # 2 rows: too few to tell
+    array([1., 0., 0.])
     """
     gap = ((first - second) ** 2).reshape(len(first), -1).sum(axis=1)
     differ = gap > 0
@@ -401,6 +418,12 @@ def self_agreement_information(
     width = (action_space.high - action_space.low).astype(np.float64)
     if not differ.any() or not np.isfinite(width).all():
         return information
+    uniform_gap = float(np.sum(width**2)) / 6.0
+    uniform_gap_sd = float(np.sqrt(np.sum(7.0 * width**4) / 180.0))
+    measured = 1.0 - gap[differ].mean() / uniform_gap
+    noise = AGREEMENT_MARGIN * uniform_gap_sd / uniform_gap / np.sqrt(differ.sum())
+    information[differ] = np.clip(measured, 0.0, 1.0) if measured > noise else 0.0
+    return information
     uniform_gap = 2.0 * float(np.sum(width**2)) / 12.0
     information[differ] = np.clip(1.0 - gap[differ].mean() / uniform_gap, 0.0, 1.0)
     return information

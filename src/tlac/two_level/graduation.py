@@ -67,6 +67,10 @@ HELP_MARGIN = 2.0
 help (:func:`shows_help`)."""
 MIN_LED_EPISODES = 3
 """Led episodes of every teacher before the teachers can be judged to show nothing."""
+SAYS_NOTHING = 0.01
+"""A teacher whose advice, over every row it was asked, averages at most this information
+(``1 - H / log A`` for discrete actions, the information of tlac.teachers.base.advice_actions
+for Box ones: 1 for a deterministic teacher) has nothing to copy: a random teacher."""
 RECHECK_SHARE = 0.1
 """The share of episodes a teacher still leads when none has shown help, so that one judged on
 a few unlucky episodes (a sparse goal reached now and then) can show its help later."""
@@ -259,6 +263,10 @@ class SoloEpisodes:
         self.best_assisted = -np.inf
         self.best_solo = -np.inf  # the best mean of a full window of solo returns so far
         self.solo_episodes = 0  # solo episodes ended so far
+        # per teacher: the information of its advice, summed over the rows it was asked, and
+        # those rows (record_information)
+        self.information_sums = np.zeros(n_teachers)
+        self.information_rows = np.zeros(n_teachers)
 
     def _competence_against(self, reference: float) -> float:
         """The recent solo returns' competence against ``reference`` (0 until ``min_episodes``
@@ -294,16 +302,59 @@ class SoloEpisodes:
             )
         )
 
+    def record_information(self, information: np.ndarray, asked: np.ndarray | None = None) -> None:
+        """Record how much each teacher's advice said: ``information`` ``(n_teachers, n)`` on
+        the rows it was asked (``asked``, the same shape; None: every row)."""
+        information = np.asarray(information, dtype=np.float64)
+        rows = np.ones_like(information) if asked is None else np.asarray(asked, np.float64)
+        self.information_sums += (information * rows).sum(axis=1)
+        self.information_rows += rows.sum(axis=1)
+
+    @property
+    def says_nothing(self) -> np.ndarray:
+        """``(n_teachers,)`` bools: True for a teacher whose advice, over every row it was
+        asked, averaged at most ``SAYS_NOTHING`` information (a random teacher); False where
+        it was never asked (not measured)."""
+        asked = self.information_rows > 0
+        mean = self.information_sums / np.maximum(self.information_rows, 1.0)
+        return asked & (mean <= SAYS_NOTHING)
+
+    @property
+    def unmeasured_helpers(self) -> np.ndarray:
+        """``(n_teachers,)`` bools: teachers whose led episodes show help but whose advice was
+        never asked: the update asks them once (tlac.two_level.update), so that a teacher
+        with nothing to copy is not trusted for its returns alone."""
+        return self._shows_help() & (self.information_rows == 0)
+
+    def _shows_help(self) -> np.ndarray:
+        """``(n_teachers,)`` bools: judged (``MIN_LED_EPISODES`` led episodes or more) and led
+        episodes above the floor (:func:`shows_help`)."""
+        out = np.zeros(len(self.led_counts), dtype=bool)
+        if not np.isfinite(self.floor):
+            return out
+        for k, (total, squares, count) in enumerate(
+            zip(self.led_sums, self.led_squares, self.led_counts, strict=True)
+        ):
+            out[k] = count >= MIN_LED_EPISODES and shows_help(
+                total, squares, int(count), self.floor
+            )
+        return out
+
     @property
     def no_teacher_helps(self) -> bool:
-        """Every teacher has led ``MIN_LED_EPISODES`` episodes or more, and none of them showed
-        a return above the student's floor (:func:`shows_help`): what the teachers do alone,
-        the untrained student does already. A teacher that never reaches a sparse goal, or an
-        adversarial one, would otherwise be copied in full (its led episodes at the floor read
-        as "no evidence yet"), and the copy takes away the random exploration that gives the
-        student its first successes (Acrobot, a teacher that never swings up: -500 against
-        PPO alone's -82, issue 63). A teacher gone now (:attr:`gone`) or one that leads only
-        when named from outside (:attr:`outside`: a person) is not judged."""
+        """Every teacher has led ``MIN_LED_EPISODES`` episodes or more, and none of them both
+        showed a return above the student's floor (:func:`shows_help`) and has something to
+        copy (not :attr:`says_nothing`): what the teachers do alone, the untrained student
+        does already, or what they do cannot be copied. A teacher that never reaches a sparse
+        goal, or an adversarial one, would otherwise be copied in full (its led episodes at the
+        floor read as "no evidence yet"), and the copy takes away the random exploration that
+        gives the student its first successes (Acrobot, a teacher that never swings up: -500
+        against PPO alone's -82, issue 63). A random teacher's led episodes can beat an
+        untrained student (Pendulum), but nothing of it can be copied: judged to help, it took
+        the episodes the student would have played alone, and its trust went to the untrained
+        actor beside it (seed 1: -1200.8 where PPO alone reaches -911.6). A teacher gone
+        now (:attr:`gone`) or one that leads only when named from outside (:attr:`outside`: a
+        person) is not judged."""
         here = ~self.gone & ~self.outside
         if (
             self.teacher_share <= 0
@@ -312,12 +363,7 @@ class SoloEpisodes:
             or (self.led_counts[here] < MIN_LED_EPISODES).any()
         ):
             return False
-        return not any(
-            shows_help(total, squares, int(count), self.floor)
-            for total, squares, count in zip(
-                self.led_sums[here], self.led_squares[here], self.led_counts[here], strict=True
-            )
-        )
+        return not (self._shows_help() & ~self.says_nothing)[here].any()
 
     @property
     def weaning(self) -> float:
@@ -327,7 +373,7 @@ class SoloEpisodes:
         copied) while :attr:`auditioning` and when :attr:`no_teacher_helps`."""
         if self.auditioning or self.no_teacher_helps:
             return 1.0
-        led = self.led_counts > 0
+        led = (self.led_counts > 0) & ~self.says_nothing  # a teacher with something to copy
         if not led.any():
             return self.competence
         return self._competence_against(float(np.max(self.led_sums[led] / self.led_counts[led])))

@@ -309,6 +309,12 @@ class Networks:
             return -(advice * torch.log_softmax(low_out, -1).unsqueeze(0)).sum(-1)
         return losses.scaled_squared_error(low_out, advice, self.imitation_scale)
 
+    def advice_information(self, advice: torch.Tensor) -> torch.Tensor:
+        """``(n_teachers, n)``: how much each teacher's stored advice (tlac.two_level.labels.
+        advice_on) says in each row: discrete actions, losses.advice_information of its
+        distribution; Box actions, the information in its last column."""
+        return losses.advice_information(advice) if self.discrete else advice[..., -1]
+
     def imitation_term(
         self,
         high_logits: torch.Tensor,

@@ -54,18 +54,30 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
         # answers already paid for (the teachers that acted) are kept, at no cost
         paid = charge_labels(model.advice, data, model.n_teachers, paid_only=True)
         store_paid_labels(nets, teachers, buffer, data, teacher_obs, paid)
+    # a teacher whose led episodes show help but whose advice was never asked is asked once,
+    # copied or not: a teacher with nothing to copy must not be trusted for its returns alone
+    # (graduation.SoloEpisodes.no_teacher_helps)
+    measures = (
+        buffer is not None
+        and not model.limited_advice
+        and model.solo is not None
+        and bool(model.solo.unmeasured_helpers.any())
+    )
     if imitates and model.limited_advice:
         labelled = charge_labels(model.advice, data, model.n_teachers)
         advice = advice_on(nets, teachers, teacher_obs, labelled)
         store_labels(buffer, data["obs"], labelled, advice)  # the states some teacher labelled
+        information = nets.advice_information(advice)
+        record_information(model, information * labelled.T, labelled.T)
         if cfg.low_level_data == "silent":  # where no teacher asked says anything
-            information = losses.advice_information(advice) if nets.discrete else advice[..., -1]
             silent = losses.silent_information(information * labelled.T)
-    elif imitates:
+    elif imitates or measures:
         advice = advice_on(nets, teachers, teacher_obs)
-        buffer.add(data["obs"], advice)
-        if cfg.low_level_data == "silent":  # discrete advice: distributions
-            information = losses.advice_information(advice) if nets.discrete else advice[..., -1]
+        if imitates:  # (only measured: nothing stored)
+            buffer.add(data["obs"], advice)
+        information = nets.advice_information(advice)
+        record_information(model, information)
+        if imitates and cfg.low_level_data == "silent":
             silent = losses.silent_information(information)
     k, solo = model.n_teachers, model.solo is not None
     rows = row_weights(cfg, data, k, model.train_high, solo, has_advice, silent, model.greedy_solo)
@@ -110,6 +122,15 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
         for lv, run in zip(["low", "high"], running.tolist(), strict=False):
             out[f"train/stopped_{lv}"] = float(not run)
     return out
+
+
+def record_information(
+    model: Any, information: torch.Tensor, asked: torch.Tensor | None = None
+) -> None:
+    """Give the solo statistics (if any) how much each teacher's advice said on the rows it
+    was asked (graduation.SoloEpisodes.record_information)."""
+    if model.solo is not None:
+        model.solo.record_information(information.numpy(), None if asked is None else asked.numpy())
 
 
 def epochs(
