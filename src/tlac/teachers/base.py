@@ -396,13 +396,13 @@ def self_agreement_information(
     uniformly random one. 0 also unless it is above 0 by ``AGREEMENT_MARGIN`` standard errors
     of a uniformly random teacher's mean gap over those rows (``sd ||u1 - u2||^2 =
     sqrt(sum 7 (high - low)^4 / 180)``): estimated on a rollout's 2,048 rows, a random
-    teacher's value is above 0 in half of them (up to 0.08), and where it is the only teacher
-    the high level trusts, the imitation scales that crumb up to the state's whole trust
-    (tlac.two_level.losses.reweighted_trust) and copies the mean of two random actions: on
-    Pendulum about zero torque, worse than random (issue 63). So a few differing rows cannot
-    tell a noisy teacher from a random one (fewer than 6 never can). An unbounded box has no
-    uniform draw to compare with: 1. Answers drawn from a few values (a teacher choosing
-    among fixed torques) can coincide by chance, and rows where they do read as meant.
+    teacher's value is above 0 in half of them (up to 0.08), and where the high level trusts
+    no other teacher, the imitation scales that crumb up to the state's whole trust
+    (tlac.two_level.losses.reweighted_trust) and copies the mean of two random actions. So a
+    few differing rows cannot tell a noisy teacher from a random one (with one action
+    dimension, fewer than 6 never can). An unbounded box has no uniform draw to compare with:
+    1. Answers drawn from a few values (a teacher choosing among fixed torques) can coincide
+    by chance, and rows where they do read as meant.
 
     >>> box = gym.spaces.Box(-1.0, 1.0, (1,))
     >>> first = np.array([[0.5], [0.2], [0.1], [-0.3], [0.7], [0.0], [-0.6], [0.4]])
