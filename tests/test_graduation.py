@@ -559,6 +559,31 @@ def test_teachers_that_show_nothing_above_the_floor_are_not_copied():
     assert solo.weaning == 0.0 and solo.probability == pytest.approx(0.2)  # solo still -500
 
 
+def test_help_is_judged_against_the_untrained_student_not_its_worst_window():
+    """Issue 63 (Pendulum, an adversarial teacher beside a random one, seed 3): the student's
+    own solo returns fell from -1390 to -1667 before any copy, the lowest window so far, and
+    the adversarial teacher's led episodes (-1505) then beat it: judged to help, it was copied
+    and the student stayed near -1600 (PPO alone -1016). Hand-checked, windows of one episode:
+    the untrained student's first solo return -500, then -800 (the floor); a teacher whose
+    three led episodes score -600, -610, -590 (se 5.8) shows help against -800 but not against
+    -500, so no teacher helps; eighteen more at -400, -410, -390 show it."""
+    solo = SoloEpisodes(
+        1, budget=0.2, seed=0, window=1, min_episodes=1, n_teachers=1, teacher_share=0.3
+    )
+    solo.active[:] = True
+    solo.end(0, -500.0)
+    solo.end(0, -800.0)
+    assert solo.floor == -800.0 and solo.untrained == -500.0
+    solo.active[:] = False
+    solo.leader[0] = 0
+    for episode_return in (-600.0, -610.0, -590.0):
+        solo.end(0, episode_return)
+    assert solo.no_teacher_helps and solo.weaning == 1.0
+    for episode_return in (-400.0, -410.0, -390.0) * 6:
+        solo.end(0, episode_return)
+    assert not solo.no_teacher_helps  # 21 led episodes, mean -428.6, se 15.4: -459.3 > -500
+
+
 def test_a_teacher_with_nothing_to_copy_does_not_count_as_help():
     """Issue 63 (Pendulum): a random teacher's led episodes beat the untrained student's floor,
     but nothing of it can be copied. Hand-checked: floor -500; teacher 0's led episodes -300,

@@ -63,8 +63,8 @@ def competence(solo: float, assisted: float, floor: float) -> float:
 
 
 HELP_MARGIN = 2.0
-"""Standard errors by which a teacher's led episodes must beat the student's floor to count as
-help (:func:`shows_help`)."""
+"""Standard errors by which a teacher's led episodes must beat the untrained student's level
+to count as help (:func:`shows_help`)."""
 MIN_LED_EPISODES = 3
 """Led episodes of every teacher before the teachers can be judged to show nothing."""
 SAYS_NOTHING = 0.01
@@ -223,11 +223,13 @@ class SoloEpisodes:
     (``teacher_share`` > 0) whether one teacher plays it alone instead of the high level's mix.
 
     ``window`` recent returns of solo and of assisted episodes (teacher-led ones included) are
-    compared; the floor is the lowest mean of ``window`` solo returns seen so far (the
-    untrained student's level). Until ``min_episodes`` solo episodes have ended, competence
-    counts as 0. A teacher-led episode's teacher is the one with the best UCB1 index over the
-    returns of the earlier led episodes (the per-episode bandit of the paper's Figure 11
-    ablation, selectors.ucb1_scores), so the best teacher leads most of them.
+    compared; the floor is the lowest mean of ``window`` solo returns seen so far, and
+    :attr:`untrained` the mean of the first ``min_episodes`` (the untrained student's level,
+    which a teacher's led episodes must beat to show help). Until ``min_episodes`` solo
+    episodes have ended, competence counts as 0. A teacher-led episode's teacher is the one
+    with the best UCB1 index over the returns of the earlier led episodes (the per-episode
+    bandit of the paper's Figure 11 ablation, selectors.ucb1_scores), so the best teacher
+    leads most of them.
     """
 
     def __init__(
@@ -260,6 +262,9 @@ class SoloEpisodes:
         self.assisted_returns: deque[float] = deque(maxlen=window)
         self.min_episodes = min_episodes
         self.floor = np.inf
+        # the mean of the first min_episodes solo returns: the untrained student's level, the
+        # one a teacher's led episodes must beat to show help (_shows_help)
+        self.untrained = np.inf
         self.best_assisted = -np.inf
         self.best_solo = -np.inf  # the best mean of a full window of solo returns so far
         self.solo_episodes = 0  # solo episodes ended so far
@@ -328,22 +333,29 @@ class SoloEpisodes:
 
     def _shows_help(self) -> np.ndarray:
         """``(n_teachers,)`` bools: judged (``MIN_LED_EPISODES`` led episodes or more) and led
-        episodes above the floor (:func:`shows_help`)."""
+        episodes above the untrained student's level (:func:`shows_help` against
+        :attr:`untrained`, the mean of the first ``min_episodes`` solo returns, which the
+        audition plays before any copy). Not against the floor (the lowest window of solo
+        returns so far): a student's own returns can dip below where they began, and a useless
+        teacher then beat that dip: on Pendulum an adversarial teacher's led episodes (-1505)
+        beat a window at -1667 (seed 3), were copied, and held the student near -1600 to the
+        end (-1767.5 where PPO alone reaches -1015.8; judged against the untrained student's
+        -1390, -989.6)."""
         out = np.zeros(len(self.led_counts), dtype=bool)
-        if not np.isfinite(self.floor):
+        if not np.isfinite(self.untrained):
             return out
         for k, (total, squares, count) in enumerate(
             zip(self.led_sums, self.led_squares, self.led_counts, strict=True)
         ):
             out[k] = count >= MIN_LED_EPISODES and shows_help(
-                total, squares, int(count), self.floor
+                total, squares, int(count), self.untrained
             )
         return out
 
     @property
     def no_teacher_helps(self) -> bool:
         """Every teacher has led ``MIN_LED_EPISODES`` episodes or more, and none of them both
-        showed a return above the student's floor (:func:`shows_help`) and has something to
+        showed a return above the untrained student's (:meth:`_shows_help`) and has something to
         copy (not :attr:`says_nothing`): what the teachers do alone, the untrained student
         does already, or what they do cannot be copied. A teacher that never reaches a sparse
         goal, or an adversarial one, would otherwise be copied in full (its led episodes at the
@@ -358,7 +370,7 @@ class SoloEpisodes:
         here = ~self.gone & ~self.outside
         if (
             self.teacher_share <= 0
-            or not np.isfinite(self.floor)
+            or not np.isfinite(self.untrained)
             or not here.any()
             or (self.led_counts[here] < MIN_LED_EPISODES).any()
         ):
@@ -458,6 +470,8 @@ class SoloEpisodes:
             self.solo_returns.append(float(episode_return))
             if len(self.solo_returns) >= self.min_episodes:
                 self.floor = min(self.floor, float(np.mean(self.solo_returns)))
+                if not np.isfinite(self.untrained):
+                    self.untrained = float(np.mean(self.solo_returns))
             return self.latest_is_worth_deploying()
         else:
             teacher = self.leader[env_index]
