@@ -1,12 +1,14 @@
 """A probe of the audition's judgement (issue 63, Pendulum): judge a teacher's help against the
 untrained student's FIRST solo returns, not against the floor.
 
-The default (``SoloEpisodes.no_teacher_helps``) asks whether a teacher's led episodes beat the
-student's floor, the lowest mean of a window of solo returns seen so far, by 2 standard errors
-of the led mean. On a dense, noisy reward the floor keeps falling as windows come and go, so a
-teacher about as good as the untrained student is judged to help in the end. Here the reference
-is the mean of the first ``min_episodes`` solo returns, and the test is two-sample: the led mean
-must beat it by 2 standard errors of the difference. Trains one sweep case as the sweep builds
+When this probe was written, the default (``SoloEpisodes.no_teacher_helps``) asked whether a
+teacher's led episodes beat the student's floor, the lowest mean of a window of solo returns
+seen so far, by 2 standard errors of the led mean. On a dense, noisy reward the floor keeps
+falling as windows come and go, so a teacher about as good as the untrained student is judged
+to help in the end. Here the reference is the mean of the first ``min_episodes`` solo returns,
+and the test is two-sample: the led mean must beat it by 2 standard errors of the difference.
+The default now judges against that same mean with the led mean's standard error alone
+(commit 82f1e43c; results/teacher-sweep/NOTES.md), which ``--judgement default`` trains. Trains one sweep case as the sweep builds
 it (benchmarks/teacher_sweep.make_learner) and prints the student alone over the user suite's
 30 evaluation episodes; ``--judgement default`` trains the default instead, and ``--trace``
 prints the audition's state every 8,192 steps (its floor, the recent solo mean, each teacher's
