@@ -424,6 +424,3 @@ def self_agreement_information(
     noise = AGREEMENT_MARGIN * uniform_gap_sd / uniform_gap / np.sqrt(differ.sum())
     information[differ] = np.clip(measured, 0.0, 1.0) if measured > noise else 0.0
     return information
-    uniform_gap = 2.0 * float(np.sum(width**2)) / 12.0
-    information[differ] = np.clip(1.0 - gap[differ].mean() / uniform_gap, 0.0, 1.0)
-    return information

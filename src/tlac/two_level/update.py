@@ -47,13 +47,6 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
     imitates = buffer is not None and distill > 0
     teacher_obs = data["obs"] if unwrap_vec_normalize(model.env) is None else data["teacher_obs"]
     silent = None  # low_level_data silent: the states where no teacher says anything
-    if model.advice is not None and not model.limited_advice:  # counted only
-        model.advice.count_unlimited(data["choices"].numpy(), imitates)
-    if buffer is not None and model.limited_advice and not imitates:
-        # nothing is copied now (the audition, a weaned copy): no label is asked, but the
-        # answers already paid for (the teachers that acted) are kept, at no cost
-        paid = charge_labels(model.advice, data, model.n_teachers, paid_only=True)
-        store_paid_labels(nets, teachers, buffer, data, teacher_obs, paid)
     # a teacher whose led episodes show help but whose advice was never asked is asked once,
     # copied or not: a teacher with nothing to copy must not be trusted for its returns alone
     # (graduation.SoloEpisodes.no_teacher_helps)
@@ -63,6 +56,13 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
         and model.solo is not None
         and bool(model.solo.unmeasured_helpers.any())
     )
+    if model.advice is not None and not model.limited_advice:  # counted only
+        model.advice.count_unlimited(data["choices"].numpy(), imitates or measures)
+    if buffer is not None and model.limited_advice and not imitates:
+        # nothing is copied now (the audition, a weaned copy): no label is asked, but the
+        # answers already paid for (the teachers that acted) are kept, at no cost
+        paid = charge_labels(model.advice, data, model.n_teachers, paid_only=True)
+        store_paid_labels(nets, teachers, buffer, data, teacher_obs, paid)
     if imitates and model.limited_advice:
         labelled = charge_labels(model.advice, data, model.n_teachers)
         advice = advice_on(nets, teachers, teacher_obs, labelled)
