@@ -8,7 +8,7 @@ falling as windows come and go, so a teacher about as good as the untrained stud
 to help in the end. Here the reference is the mean of the first ``min_episodes`` solo returns,
 and the test is two-sample: the led mean must beat it by 2 standard errors of the difference.
 The default now judges against that same mean with the led mean's standard error alone
-(commit 82f1e43c; results/teacher-sweep/NOTES.md), which ``--judgement default`` trains. Trains one sweep case as the sweep builds
+(commit 82f1e43c; results/teacher-sweep/NOTES.md). Trains one sweep case as the sweep builds
 it (benchmarks/teacher_sweep.make_learner) and prints the student alone over the user suite's
 30 evaluation episodes; ``--judgement default`` trains the default instead, and ``--trace``
 prints the audition's state every 8,192 steps (its floor, the recent solo mean, each teacher's

@@ -51,7 +51,8 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
     # copied or not: a teacher with nothing to copy must not be trusted for its returns alone
     # (graduation.SoloEpisodes.no_teacher_helps)
     measures = (
-        buffer is not None
+        not imitates
+        and buffer is not None
         and not model.limited_advice
         and model.solo is not None
         and bool(model.solo.unmeasured_helpers.any())
@@ -68,7 +69,7 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
         advice = advice_on(nets, teachers, teacher_obs, labelled)
         store_labels(buffer, data["obs"], labelled, advice)  # the states some teacher labelled
         information = nets.advice_information(advice)
-        record_information(model, information * labelled.T, labelled.T)
+        record_information(model, information, labelled.T)
         if cfg.low_level_data == "silent":  # where no teacher asked says anything
             silent = losses.silent_information(information * labelled.T)
     elif imitates or measures:
