@@ -519,6 +519,16 @@ def time_cell(ours: tuple[int, float], theirs: tuple[int, float], unit: str) -> 
     return f"{shown(ours)} / {shown(theirs)}{tail}"
 
 
+def decimals(env_id: str) -> int:
+    """The decimals the report gives a return: DoorKey's lie in [0, 1], the others' span
+    hundreds.
+
+    >>> decimals("DoorKey"), decimals("Pendulum-v1")
+    (3, 1)
+    """
+    return 3 if env_id == DOORKEY else 1
+
+
 def env_rows(out: Path, env_id: str, seeds: list[int]) -> tuple[list[str], list[dict]]:
     """The report's rows of one environment and the points of its figure."""
     teachers = json.loads((out / "teachers" / f"{env_id}.json").read_text())
@@ -554,11 +564,12 @@ def env_rows(out: Path, env_id: str, seeds: list[int]) -> tuple[list[str], list[
         )
         ratios = [time_ratio(ours, theirs) for ours, theirs in times.values()]
         time_ok = not timed or not reaches or max(ratios) <= TIME_FACTOR
+        d = decimals(env_id)
         rows.append(
-            f"| {env_id} | {case} | {teacher['q']:.2f} | {teacher['alone']:.1f} "
-            f"| {len(runs)} | {peers._mean_std(student)} "
-            f"| {peers._mean_std([r['training_return'] or np.nan for r in runs])} "
-            f"| {ppo:.1f} | {floor:.1f} | {'yes' if mean >= floor else 'NO'} "
+            f"| {env_id} | {case} | {teacher['q']:.2f} | {teacher['alone']:.{d}f} "
+            f"| {len(runs)} | {peers._mean_std(student, d)} "
+            f"| {peers._mean_std([r['training_return'] or np.nan for r in runs], d)} "
+            f"| {ppo:.{d}f} | {floor:.{d}f} | {'yes' if mean >= floor else 'NO'} "
             f"| {cell} | {('yes' if time_ok else 'NO') if timed else ''} |"
         )
         points.append(
