@@ -495,8 +495,14 @@ def first_reach(curve: list[list[float]], threshold: float) -> tuple[float, floa
     return None if point is None else (point[0], point[2])
 
 
-def _mean_std(values: list[float], decimals: int = 1) -> str:
-    values = [v for v in values if np.isfinite(v)]
+def _mean_std(values: list[float | None], decimals: int = 1) -> str:
+    """``mean +- std`` of the values that are numbers (None: a run with no episode yet, as
+    :func:`recent_mean` gives it; NaN), ``-`` if none is.
+
+    >>> _mean_std([0.0, None, float("nan"), 2.0]), _mean_std([None])
+    ('1.0 +- 1.0', '-')
+    """
+    values = [v for v in values if v is not None and np.isfinite(v)]
     return f"{np.mean(values):.{decimals}f} +- {np.std(values):.{decimals}f}" if values else "-"
 
 

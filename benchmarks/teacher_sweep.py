@@ -529,16 +529,6 @@ def decimals(env_id: str) -> int:
     return 3 if env_id == DOORKEY else 1
 
 
-def training_return(run: dict) -> float:
-    """A run's last training return, NaN where it has none (0.0 is a return: DoorKey's).
-
-    >>> training_return({"training_return": 0.0}), training_return({"training_return": None})
-    (0.0, nan)
-    """
-    value = run.get("training_return")
-    return float("nan") if value is None else float(value)
-
-
 def env_rows(out: Path, env_id: str, seeds: list[int]) -> tuple[list[str], list[dict]]:
     """The report's rows of one environment and the points of its figure."""
     teachers = json.loads((out / "teachers" / f"{env_id}.json").read_text())
@@ -578,7 +568,7 @@ def env_rows(out: Path, env_id: str, seeds: list[int]) -> tuple[list[str], list[
         rows.append(
             f"| {env_id} | {case} | {teacher['q']:.2f} | {teacher['alone']:.{d}f} "
             f"| {len(runs)} | {peers._mean_std(student, d)} "
-            f"| {peers._mean_std([training_return(r) for r in runs], d)} "
+            f"| {peers._mean_std([r['training_return'] for r in runs], d)} "
             f"| {ppo:.{d}f} | {floor:.{d}f} | {'yes' if mean >= floor else 'NO'} "
             f"| {cell} | {('yes' if time_ok else 'NO') if timed else ''} |"
         )

@@ -3,6 +3,7 @@ that learns from a teacher (behaviour cloning must move the student towards the 
 
 from __future__ import annotations
 
+import doctest
 import importlib.util
 import sys
 from pathlib import Path
@@ -15,6 +16,10 @@ sys.path.insert(0, str(_DIR))
 _spec = importlib.util.spec_from_file_location("peers", _DIR / "peers.py")
 peers = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(peers)
+
+
+def test_the_doctests_hold():
+    assert doctest.testmod(peers).failed == 0
 
 
 def test_score_at_takes_the_last_evaluation_within_one_rollout():
