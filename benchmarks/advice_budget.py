@@ -264,6 +264,75 @@ def plot_case(out: Path, case: str, by_key: dict[tuple, list[dict[str, Any]]]) -
     plt.close(fig)
 
 
+def seed_mean(runs: list[dict[str, Any]] | None) -> float | None:
+    """The seeds' mean of the student alone at the end (None: no run)."""
+    return float(np.mean([final_score(r) for r in runs])) if runs else None
+
+
+def learned_holds(learned: float, others: list[float | None]) -> bool:
+    """Issue 66's first point: the learned asking's student at or above every other learner's
+    (the rules run and PPO alone; None: not run, so not compared).
+
+    >>> learned_holds(-113.0, [-133.0, -113.1, -200.0])
+    True
+    >>> learned_holds(-113.7, [-133.0, -113.1, None])
+    False
+    """
+    return all(learned >= other for other in others if other is not None)
+
+
+def margin_share(score: float, reference: float, random_return: float) -> float:
+    """``score``'s margin over the random policy as a share of ``reference``'s: issue 66's
+    "95% of the always-available one's" read on the margin over random, so that it means the
+    same on MountainCar's negative returns as on CartPole's positive ones.
+
+    >>> margin_share(-120.0, -110.0, -200.0)
+    0.8888888888888888
+    >>> margin_share(500.0, 500.0, 22.0)
+    1.0
+    """
+    return (score - random_return) / (reference - random_return)
+
+
+def random_return(out: Path, case: str) -> float:
+    """The uniformly random policy's return on the case's evaluation episodes, kept in
+    ``out``/reference/<case>.json once measured."""
+    path = out / "reference" / f"{case}.json"
+    if not path.exists():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        measured = peers.reference_returns(case, user_envs.EVAL_EPISODES)
+        path.write_text(json.dumps(measured, indent=1))
+    return float(json.loads(path.read_text())["random_policy"])
+
+
+def verdict_table(
+    case: str, by_key: dict[tuple, list[dict[str, Any]]], random_policy: float
+) -> list[str]:
+    """Per budget and availability the learned asking's student (seed mean) beside early's,
+    importance's and PPO alone's, and at availability 0.5 its margin over random as a share of
+    the always-available one's: the issue's acceptance, on the seeds run (5 asked)."""
+    ppo = seed_mean(by_key.get(("ppo", "", 1.0)))
+    places = 3 if peers.is_doorkey(case) else 1  # DoorKey's returns lie in [0, 1]
+    lines = []
+    for key in sorted(k for k in by_key if k[0] == "learned"):
+        _, budget, availability = key
+        learned = seed_mean(by_key[key])
+        early = seed_mean(by_key.get(("early", budget, availability)))
+        importance = seed_mean(by_key.get(("importance", budget, availability)))
+        holds = learned_holds(learned, [early, importance, ppo])
+        share = "-"
+        always = seed_mean(by_key.get(("learned", budget, 1.0)))
+        if availability != 1.0 and always is not None and always != random_policy:
+            ratio = margin_share(learned, always, random_policy)
+            share = f"{ratio:.2f} ({'yes' if ratio >= 0.95 else 'NO'})"
+        shown = [f"{v:.{places}f}" if v is not None else "-" for v in (early, importance, ppo)]
+        lines.append(
+            f"| {case} | {budget} | {availability:g} | {len(by_key[key])} | {learned:.{places}f} "
+            f"| {' | '.join(shown)} | {'yes' if holds else 'NO'} | {share} |"
+        )
+    return lines
+
+
 def report(out: Path) -> str:
     runs = load_runs(out)
     lines = [
@@ -271,13 +340,26 @@ def report(out: Path) -> str:
         "| answers used |",
         "|---|---|---|---|---|---|---|---|",
     ]
+    verdicts = [
+        "",
+        "The acceptance (seed means of the student alone at the end; the issue asks 5 seeds). "
+        "`learned >= the others`: at or above early's, importance's and PPO alone's (those run). "
+        "At availability 0.5: the learned student's margin over the random policy as a share "
+        "of the always-available one's (>= 0.95 asked).",
+        "",
+        "| case | budget | availability | seeds | learned | early | importance | PPO alone "
+        "| learned >= the others | availability 0.5 / 1 |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for case in CASES:
         by_key = groups(runs, case)
         if not by_key:
             continue
         lines += case_table(case, by_key)
+        if any(k[0] == "learned" for k in by_key):
+            verdicts += verdict_table(case, by_key, random_return(out, case))
         plot_case(out, case, by_key)
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + verdicts) + "\n"
 
 
 # ------------------------------------------------------------------ the grid

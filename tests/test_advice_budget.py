@@ -4,6 +4,7 @@ beside the answers used."""
 
 from __future__ import annotations
 
+import doctest
 import importlib.util
 import json
 import sys
@@ -81,3 +82,31 @@ def test_bad_budget_is_one_line(monkeypatch, tmp_path):
     with pytest.raises(SystemExit) as stop:
         bench.main()
     assert stop.value.code == 2
+
+
+def test_verdicts_compare_the_learned_asking_with_the_others(tmp_path):
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    for run in [
+        _fake("MountainCar-v0", "learned", "1e3", 1.0, 0, -110.0, 80),
+        _fake("MountainCar-v0", "learned", "1e3", 1.0, 1, -114.0, 90),
+        _fake("MountainCar-v0", "early", "1e3", 1.0, 0, -133.0, 1000),
+        _fake("MountainCar-v0", "importance", "1e3", 1.0, 0, -111.0, 1000),
+        _fake("MountainCar-v0", "learned", "1e3", 0.5, 0, -120.0, 70),
+        _fake("MountainCar-v0", "ppo", "", 1.0, 0, -200.0, 0),
+    ]:
+        name = bench.run_name(
+            run["case"], run["learner"], run.get("budget", ""), run.get("availability", 1), 0
+        )
+        (runs / f"{run['seed']}-{name}").write_text(json.dumps(run))
+    (tmp_path / "reference").mkdir()
+    (tmp_path / "reference" / "MountainCar-v0.json").write_text('{"random_policy": -200.0}')
+    table = bench.report(tmp_path)
+    # learned's mean -112.0 is below importance's -111.0: the verdict says so
+    assert "| MountainCar-v0 | 1e3 | 1 | 2 | -112.0 | -133.0 | -111.0 | -200.0 | NO | - |" in table
+    # at availability 0.5: (-120 + 200) / (-112 + 200) = 80 / 88 = 0.91, below 0.95
+    assert "| MountainCar-v0 | 1e3 | 0.5 | 1 | -120.0 | - | - | -200.0 | yes | 0.91 (NO) |" in table
+
+
+def test_the_doctests_hold():
+    assert doctest.testmod(bench).failed == 0
