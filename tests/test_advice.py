@@ -281,8 +281,13 @@ def test_the_budget_is_never_exceeded_in_training(seed):
     chances = {"a": float(rng.choice([0.3, 1.0])), "b": float(rng.choice([0.5, 1.0]))}
     budget = float(rng.choice([50.0, 400.0]))
     a, b = Spy("a"), Spy("b")
-    model = _cartpole(
-        [a, b], advice_budget=budget, teacher_cost=costs, availability=chances, seed=seed
+    model = _cartpole(  # every state asked (a budget's default rule paces its answers)
+        [a, b],
+        advice_budget=budget,
+        teacher_cost=costs,
+        availability=chances,
+        seed=seed,
+        ask="always",
     )
     model.learn(960)
     ledger = model.advice
@@ -457,6 +462,7 @@ def test_an_interrupted_run_resumes_its_budget_exactly(tmp_path):
         "batch_size": 8,
         "advice_budget": 100,
         "availability": {"optimal": 0.5},
+        "ask": "always",  # learned paces over its learn call: the test below
     }
     whole = TLAC("doorkey", teachers=["optimal", "random"], **settings).learn(160)
     half = TLAC("doorkey", teachers=["optimal", "random"], **settings).learn(80)
@@ -468,3 +474,29 @@ def test_an_interrupted_run_resumes_its_budget_exactly(tmp_path):
     assert _digest(resumed) == _digest(whole)
     assert resumed.advice.answers.tolist() == whole.advice.answers.tolist()
     assert resumed.advice.spent == whole.advice.spent <= 100
+
+
+def test_a_learned_asking_interrupted_mid_run_resumes_its_price_exactly(tmp_path):
+    """A budget's default rule (learned) paces its price over the learn call: a run stopped
+    half-way through that call (as a killed ``tlac train`` resumes from its checkpoint) and
+    resumed equals the run left alone, price and answers included."""
+    settings = {"seed": 3, "n_steps": 8, "batch_size": 8, "advice_budget": 30}
+    teachers = ["optimal", "random"]
+    whole = TLAC("doorkey", teachers=teachers, **settings)
+    assert whole.config.advice.ask == "learned"
+    whole.learn(160)
+
+    def stop_half_way(model):
+        if model.num_timesteps < 80:
+            return True
+        model.save(tmp_path / "half.pt", training_state=True)
+        return False
+
+    TLAC("doorkey", teachers=teachers, **settings).learn(160, callback=stop_half_way)
+    resumed = TLAC.load(tmp_path / "half.pt", env="doorkey", teachers=teachers, resume=True)
+    resumed.learn(80, reset_num_timesteps=False)
+    assert resumed.num_timesteps == whole.num_timesteps == 160
+    assert _digest(resumed) == _digest(whole)
+    assert resumed.advice.price == whole.advice.price
+    assert resumed.advice.answers.tolist() == whole.advice.answers.tolist()
+    assert 0 < whole.advice.spent <= 30

@@ -234,6 +234,7 @@ def test_a_schedule_survives_save_and_an_interrupted_run_resumes_exactly(tmp_pat
         "batch_size": 8,
         "advice_budget": 100,
         "availability": {"optimal": {"steps": [[0, 1.0], [48, 0.5], [120, 0.0]]}},
+        "ask": "always",  # learned paces over its learn call (test_advice's resume tests)
     }
     whole = TLAC("doorkey", teachers=["optimal", "random"], **settings).learn(160)
     half = TLAC("doorkey", teachers=["optimal", "random"], **settings).learn(80)

@@ -567,7 +567,7 @@ def teach_run(
         env=env,
         teachers=["human", "random"],
         steps=steps,
-        overrides={"advice_budget": 300, **overrides},
+        overrides={"advice_budget": 300, "ask": "always", **overrides},  # as tlac teach sets them
         eval_episodes=2,
     )
     run = drawn_run(resolve_run(spec))  # as tlac teach makes it

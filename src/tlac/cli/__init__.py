@@ -437,7 +437,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=float,
         default=None,
         metavar="N",
-        help="TL-AC: the advice budget in cost units (every cost 1: answers); once spent, no "
+        help="TL-AC: the advice budget in cost units (every cost 1: answers), paced over the "
+        "run by the learned asking rule unless --set ask=... names another; once spent, no "
         "teacher is asked again (docs/advice.md)",
     )
     train.add_argument(

@@ -55,6 +55,11 @@ def _cmd_teach(args: argparse.Namespace) -> int:
         isinstance(advice, dict) and "advice_budget" in advice
     ):
         overrides["advice_budget"] = DEFAULT_BUDGET
+    # a person is asked in every state until the budget is spent (the page's questions come
+    # at once, as docs/human-teacher.md describes), not at the price the learned rule, a
+    # budget's default elsewhere, would set; --set ask=... still chooses
+    if "ask" not in overrides and not (isinstance(advice, dict) and "ask" in advice):
+        overrides["ask"] = "always"
     if args.teacher_cost:
         overrides["teacher_cost"] = _teacher_numbers("--teacher-cost", args.teacher_cost)
     eval_every = args.eval_every or max(args.steps // 20, 1000)

@@ -8,6 +8,7 @@ preset and from SB3's ``policy_kwargs``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import numbers
 from collections.abc import Callable
@@ -97,9 +98,9 @@ class AdviceSettings:
     environment step (``num_timesteps``), or, from Python, a function of that step
     (``lambda step: 1.0 if step < 20_000 else 0.0``; a model file keeps its value at save
     time). An absent teacher can neither be chosen by the high level nor give a label."""
-    ask: str = "always"
+    ask: str | None = None
     """In which states the student asks its teachers (tlac.algorithms.advice.ask_gate): always
-    (every state; tlac's default and the paper's), early (every state while the budget lasts:
+    (every state; the paper's), early (every state while the budget lasts:
     Torrey & Taylor 2013's early advising), importance (where the spread of the student's own
     action logits is at least ask_threshold: Amir et al. 2016's ask-important) or uncertainty
     (where its policy's normalised entropy is at least ask_threshold: their ask-uncertain),
@@ -108,7 +109,11 @@ class AdviceSettings:
     mistake (in the states importance flags, the teacher checks the student's action: a label
     only where it disagrees; Torrey & Taylor 2013's mistake correcting). importance,
     uncertainty and mistake need discrete actions. Where the student does not ask, it acts and
-    no label is stored; a teacher-led episode's teacher is asked in every state."""
+    no label is stored; a teacher-led episode's teacher is asked in every state. None (the
+    default): learned on a budget with the learned high level (it paces its answers over the
+    run: issue 66's measurements in docs/advice.md), else always (without a budget every
+    state is asked, as before budgets existed; a random or UCB1 selector has no logits to
+    price)."""
     ask_threshold: float | None = None
     """The threshold of ask importance and mistake (nats of logit spread; None: 1.0) or
     uncertainty (a share of the largest entropy, in [0, 1]; None: 0.5)."""
@@ -126,7 +131,8 @@ class AdviceSettings:
                 check.number(f"availability[{name!r}]", chance, 0.0, 1.0, open_low=True)
             elif (expected := availability_problem(chance)) is not None:
                 raise check.error(f"availability[{name!r}]", expected, chance)
-        check.one_of("ask", self.ask, ASK_RULES)
+        if self.ask is not None:
+            check.one_of("ask", self.ask, ASK_RULES)
         if self.ask_threshold is not None:
             high = 1.0 if self.ask == "uncertainty" else math.inf
             check.number("ask_threshold", self.ask_threshold, 0.0, high)
@@ -146,8 +152,19 @@ class AdviceSettings:
         return (
             self.advice_budget is not None
             or any(not is_constant(p) or p < 1 for p in self.availability.values())
-            or self.ask != "always"
+            or self.ask not in (None, "always")
         )
+
+
+def default_ask(advice_budget: float | None, selector: str) -> str:
+    """The asking rule a run gets when it names none: ``learned`` on a budget with the learned
+    high level, which paces its answers over the run (the budget is not spent in the first
+    episodes), else ``always``.
+
+    >>> default_ask(None, "learned"), default_ask(1000, "learned"), default_ask(1000, "ucb1")
+    ('always', 'learned', 'always')
+    """
+    return "learned" if advice_budget is not None and selector == "learned" else "always"
 
 
 def is_constant(availability: Any) -> bool:
@@ -356,6 +373,9 @@ class TLACConfig:
         for name, value in VARIANT_DEFAULTS[self.variant].items():
             if getattr(self, name) is None:
                 object.__setattr__(self, name, value)  # frozen: only while it is being made
+        if self.advice.ask is None:
+            ask = default_ask(self.advice.advice_budget, self.selector)
+            object.__setattr__(self, "advice", dataclasses.replace(self.advice, ask=ask))
         self.validate()
 
     @classmethod
