@@ -500,3 +500,12 @@ def test_a_learned_asking_interrupted_mid_run_resumes_its_price_exactly(tmp_path
     assert resumed.advice.price == whole.advice.price
     assert resumed.advice.answers.tolist() == whole.advice.answers.tolist()
     assert 0 < whole.advice.spent <= 30
+
+
+def test_a_budget_of_nothing_asks_nobody_under_the_default_rule():
+    """advice_budget 0 with the rule a budget gets by default (learned): the student acts
+    alone from the first step, and the price has nothing to pace (no division by zero)."""
+    pd = Spy("pd")
+    model = _cartpole([pd], advice_budget=0).learn(256)
+    assert model.config.advice.ask == "learned"
+    assert model.advice.spent == 0 and pd.rows == 0

@@ -145,8 +145,10 @@ def starting_price(n_teachers: int, pace: float, cost: float) -> float:
     5.2883
     >>> starting_price(2, 0.9, 1.0)
     0.0
+    >>> starting_price(2, 0.0, 1.0)   # a budget of 0: no teacher can be asked, at any price
+    0.0
     """
-    if cost <= 0:  # free answers: nothing to pace
+    if cost <= 0 or pace <= 0:  # free answers, or nothing left to spend: nothing to pace
         return 0.0
     rate = pace / cost
     if rate >= n_teachers / (n_teachers + 1):
