@@ -560,6 +560,7 @@ def teach_run(
     env: str = "doorkey",
     **overrides,
 ):
+    from tlac.cli.teach import with_teach_defaults
     from tlac.human.session import TeachSession, action_names, drawn_run
     from tlac.run import RunSpec, resolve_run, train_run
 
@@ -567,7 +568,7 @@ def teach_run(
         env=env,
         teachers=["human", "random"],
         steps=steps,
-        overrides={"advice_budget": 300, "ask": "always", **overrides},  # as tlac teach sets them
+        overrides=with_teach_defaults({"advice_budget": 300, **overrides}),  # as tlac teach
         eval_episodes=2,
     )
     run = drawn_run(resolve_run(spec))  # as tlac teach makes it

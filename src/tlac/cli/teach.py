@@ -18,6 +18,26 @@ DEFAULT_BUDGET = 1000.0
 """The person's questions, where ``--advice-budget`` is not given (every cost 1)."""
 
 
+def with_teach_defaults(overrides: dict[str, Any]) -> dict[str, Any]:
+    """``overrides`` with what ``tlac teach`` sets where they leave it out: a budget of
+    :data:`DEFAULT_BUDGET` questions, and the rule ``always``. A person is asked in every state
+    until the budget is spent (the page's questions come at once, as docs/human-teacher.md
+    describes), not at the price of the learned rule that a budget gets elsewhere. A setting
+    given directly or inside ``advice`` wins.
+
+    >>> with_teach_defaults({})
+    {'advice_budget': 1000.0, 'ask': 'always'}
+    >>> with_teach_defaults({"advice": {"advice_budget": 50, "ask": "learned"}})
+    {'advice': {'advice_budget': 50, 'ask': 'learned'}}
+    """
+    out = dict(overrides)
+    advice = out.get("advice")
+    for name, value in (("advice_budget", DEFAULT_BUDGET), ("ask", "always")):
+        if name not in out and not (isinstance(advice, dict) and name in advice):
+            out[name] = value
+    return out
+
+
 def _positive_float(text: str) -> float:
     try:
         value = float(text)
@@ -48,18 +68,7 @@ def _cmd_teach(args: argparse.Namespace) -> int:
     overrides: dict[str, Any] = _parse_overrides(args.set)
     if args.advice_budget is not None:
         overrides["advice_budget"] = args.advice_budget
-    # an explicit budget (--advice-budget, --set advice_budget=N or --set advice={...}) wins;
-    # the default fills in only where none is given
-    advice = overrides.get("advice")
-    if "advice_budget" not in overrides and not (
-        isinstance(advice, dict) and "advice_budget" in advice
-    ):
-        overrides["advice_budget"] = DEFAULT_BUDGET
-    # a person is asked in every state until the budget is spent (the page's questions come
-    # at once, as docs/human-teacher.md describes), not at the price the learned rule, a
-    # budget's default elsewhere, would set; --set ask=... still chooses
-    if "ask" not in overrides and not (isinstance(advice, dict) and "ask" in advice):
-        overrides["ask"] = "always"
+    overrides = with_teach_defaults(overrides)
     if args.teacher_cost:
         overrides["teacher_cost"] = _teacher_numbers("--teacher-cost", args.teacher_cost)
     eval_every = args.eval_every or max(args.steps // 20, 1000)
