@@ -78,6 +78,9 @@ def test_learned_and_mistake_gates_by_hand():
     logits = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.5, 0.0, 0.0], [9.0, 0.0, 0.0]])
     # learned: the student may ask everywhere (the high level's choice is the ask)
     assert ask_gate("learned", logits).tolist() == [True] * 4
+    # with a threshold, learned asks only where importance flags the state (spread >= it)
+    assert ask_gate("learned", logits, 1.0).tolist() == [False, True, False, True]
+    assert ask_gate("learned", logits, 2.5).tolist() == [False, False, False, True]
     # mistake correcting checks in the states importance flags (spread >= 1 by default)
     assert ask_gate("mistake", logits).tolist() == [False, True, False, True]
     assert ask_gate("mistake", logits, 2.5).tolist() == [False, False, False, True]
@@ -429,6 +432,14 @@ def test_bad_teacher_spec_and_rules_for_box_actions():
         TeacherSpec(lambda obs: 0, availability=2.0)
     with pytest.raises(ConfigError, match="needs discrete actions"):
         TLAC(gym.make("Pendulum-v1"), teachers=[lambda o: np.zeros(1)], ask="importance")
+    with pytest.raises(ConfigError, match="ask_threshold under ask 'learned'"):
+        TLAC(
+            gym.make("Pendulum-v1"),
+            teachers=[lambda o: np.zeros(1)],
+            ask="learned",
+            ask_threshold=1.0,
+            advice_budget=10,
+        )
 
 
 @pytest.mark.parametrize(

@@ -104,8 +104,9 @@ def ask_gate(rule: str, logits: np.ndarray, threshold: float | None = None) -> n
       ``threshold`` (:func:`normalized_entropy`): the student asks where it does not know what
       to do, Amir et al. 2016's *ask uncertain* (their Q-values close together, here its policy
       near uniform).
-    * ``learned``: in every state; the high level's choice of a teacher is the ask, and its
-      price (:func:`paced_price`) is charged in the high level's logits (:func:`priced_logits`).
+    * ``learned``: the high level's choice of a teacher is the ask, and its price
+      (:func:`paced_price`) is charged in the high level's logits (:func:`priced_logits`): in
+      every state, or, with a ``threshold``, only where importance flags the state.
     * ``mistake``: where importance flags the state (Torrey & Taylor 2013's *mistake
       correcting*): the teacher checks the student's action, and its answer is stored as a
       label only where it disagrees (TLAC.collect).
@@ -116,13 +117,16 @@ def ask_gate(rule: str, logits: np.ndarray, threshold: float | None = None) -> n
     [True, True, True]
     >>> ask_gate("importance", np.array([[0.4, 0.0], [1.5, 0.0]]), 1.0).tolist()
     [False, True]
+    >>> ask_gate("learned", np.array([[0.4, 0.0], [1.5, 0.0]])).tolist(), ask_gate(
+    ...     "learned", np.array([[0.4, 0.0], [1.5, 0.0]]), 1.0).tolist()
+    ([True, True], [False, True])
     """
     n = logits.shape[0]
-    if rule in ("always", "early", "learned"):
+    if rule in ("always", "early") or (rule == "learned" and threshold is None):
         return np.ones(n, dtype=bool)
     if threshold is None:
         threshold = DEFAULT_THRESHOLDS[rule]
-    if rule in ("importance", "mistake"):
+    if rule in ("importance", "mistake", "learned"):
         return logit_spread(logits) >= threshold
     if rule == "uncertainty":
         return normalized_entropy(logits) >= threshold

@@ -116,7 +116,9 @@ class AdviceSettings:
     price)."""
     ask_threshold: float | None = None
     """The threshold of ask importance and mistake (nats of logit spread; None: 1.0) or
-    uncertainty (a share of the largest entropy, in [0, 1]; None: 0.5)."""
+    uncertainty (a share of the largest entropy, in [0, 1]; None: 0.5). Under ask learned,
+    None lets the high level ask in every state, and a number only where importance flags the
+    state (discrete actions)."""
 
     def __post_init__(self) -> None:
         check = Checks("TL-AC")

@@ -131,6 +131,11 @@ def make_advice_ledger(
             f"TL-AC setting ask {terms.ask!r} reads the student's action logits and "
             "needs discrete actions; use always or early with Box actions"
         )
+    if terms.ask == "learned" and terms.ask_threshold is not None and not discrete:
+        raise ConfigError(
+            "TL-AC setting ask_threshold under ask 'learned' gates the asks by the student's "
+            "action logits and needs discrete actions; leave it unset with Box actions"
+        )
     return AdviceLedger(
         per_teacher(terms.teacher_cost, teacher_names, "teacher_cost", 1.0),
         per_teacher_values(terms.availability, teacher_names, "availability", 1.0),
