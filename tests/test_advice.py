@@ -362,6 +362,33 @@ def test_learned_asking_paces_the_budget():
     assert ledger.summary(model.teacher_names)["price"] == ledger.price >= 0
 
 
+def test_learned_asking_gates_by_importance_where_answers_are_scarce():
+    """ask learned with no ask_threshold: where the budget's even pace is under 1 answer per
+    100 steps (and actions are discrete), the high level may choose a teacher only where the
+    student's logits spread by at least 1 nat (importance's threshold); with more, everywhere.
+    The untrained student (logits near 0) flags no state, so a scarce budget asks nobody yet."""
+    scarce = _cartpole([Spy("pd"), Spy("coin")], advice_budget=40)
+    assert scarce.config.advice.ask == "learned" and scarce.advice.threshold is None
+    scarce._schedule = (0, 32_000)  # 40 answers over 32,000 steps: 0.00125 a step, scarce
+    ro = scarce.collect()
+    assert scarce.advice.threshold == 1.0
+    logits = scarce.nets.act_on_input(scarce.nets.normalized(ro.obs.reshape(-1, 4)))[1]
+    assert logit_spread(np.asarray(logits)).max() < 1.0  # (the untrained student's)
+    assert not ro.high_mask.any() and (ro.choices == 2).all() and scarce.advice.spent == 0
+
+    plenty = _cartpole([Spy("pd"), Spy("coin")], advice_budget=40)
+    plenty._schedule = (0, 320)  # 0.125 answers a step: every state may ask
+    ro = plenty.collect()
+    assert plenty.advice.threshold is None and ro.high_mask.all()
+
+    everywhere = _cartpole([Spy("pd"), Spy("coin")], advice_budget=40, ask_threshold=0.0)
+    everywhere._schedule = (0, 32_000)  # scarce, but the threshold given is kept
+    assert everywhere.collect().high_mask.all() and everywhere.advice.threshold == 0.0
+
+    box = TLAC(gym.make("Pendulum-v1"), teachers=[lambda o: np.zeros(1)], advice_budget=10)
+    assert box.config.advice.ask == "learned" and not box.advice.gate_when_scarce
+
+
 def test_mistake_correcting_labels_only_disagreements():
     """ask mistake: where importance flags the state, the chosen teacher checks the student's
     sampled action; its answer is stored as a label only where it disagrees."""
@@ -487,11 +514,13 @@ def test_an_interrupted_run_resumes_its_budget_exactly(tmp_path):
     assert resumed.advice.spent == whole.advice.spent <= 100
 
 
-def test_a_learned_asking_interrupted_mid_run_resumes_its_price_exactly(tmp_path):
+@pytest.mark.parametrize("budget, gate", [(30, None), (1, 1.0)])
+def test_a_learned_asking_interrupted_mid_run_resumes_its_price_exactly(tmp_path, budget, gate):
     """A budget's default rule (learned) paces its price over the learn call: a run stopped
     half-way through that call (as a killed ``tlac train`` resumes from its checkpoint) and
-    resumed equals the run left alone, price and answers included."""
-    settings = {"seed": 3, "n_steps": 8, "batch_size": 8, "advice_budget": 30}
+    resumed equals the run left alone, price, answers and gate included (1 answer over 160
+    steps is scarce: the importance gate, decided at the first rollout, is kept)."""
+    settings = {"seed": 3, "n_steps": 8, "batch_size": 8, "advice_budget": budget}
     teachers = ["optimal", "random"]
     whole = TLAC("doorkey", teachers=teachers, **settings)
     assert whole.config.advice.ask == "learned"
@@ -510,7 +539,8 @@ def test_a_learned_asking_interrupted_mid_run_resumes_its_price_exactly(tmp_path
     assert _digest(resumed) == _digest(whole)
     assert resumed.advice.price == whole.advice.price
     assert resumed.advice.answers.tolist() == whole.advice.answers.tolist()
-    assert 0 < whole.advice.spent <= 30
+    assert resumed.advice.threshold == whole.advice.threshold == gate
+    assert whole.advice.spent <= budget and (gate is not None or whole.advice.spent > 0)
 
 
 def test_a_budget_of_nothing_asks_nobody_under_the_default_rule():

@@ -108,7 +108,7 @@ def collect(model: Any, callbacks: LearnCallbacks | None = None) -> Rollout | No
             )
             if outside is not None:
                 limits.outside_presence(outside_presence(outside[0], model, vec_normalize))
-            asks = ask_gate(rule, low_out, cfg.advice.ask_threshold)
+            asks = ask_gate(rule, low_out, limits.threshold)
             can = limits.can_answer(asks)
             if ro.high_shift is not None:  # the behaviour policy pays the price of asking
                 ro.high_shift[t] = limits.shift()

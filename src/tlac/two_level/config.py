@@ -116,9 +116,10 @@ class AdviceSettings:
     price)."""
     ask_threshold: float | None = None
     """The threshold of ask importance and mistake (nats of logit spread; None: 1.0) or
-    uncertainty (a share of the largest entropy, in [0, 1]; None: 0.5). Under ask learned,
-    None lets the high level ask in every state, and a number only where importance flags the
-    state (discrete actions)."""
+    uncertainty (a share of the largest entropy, in [0, 1]; None: 0.5). Under ask learned the
+    high level may ask only where importance flags the state; None: 1.0 where answers are
+    scarce (a budget of fewer than 1 answer per 100 steps) and actions discrete, else every
+    state (tlac.algorithms.advice.learned_threshold); 0: every state."""
 
     def __post_init__(self) -> None:
         check = Checks("TL-AC")

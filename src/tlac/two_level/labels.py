@@ -145,6 +145,7 @@ def make_advice_ledger(
         terms.ask,
         terms.ask_threshold,
         names=teacher_names,
+        discrete=discrete,
     )
 
 
