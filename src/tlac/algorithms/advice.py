@@ -483,7 +483,8 @@ class AdviceLedger:
     def start_pacing(self, steps_left: int) -> None:
         """Before a rollout (ask learned, a budget): the first sets the price at which the
         untrained high level asks at the even pace (:func:`starting_price`), and, with no
-        threshold given, the importance gate where answers are scarce (:func:`learned_threshold`)."""
+        threshold given, the importance gate where answers are scarce
+        (:func:`learned_threshold`)."""
         if self.paced and math.isnan(self.price) and steps_left > 0:
             cost = float(self.costs.mean()) if len(self.costs) else 0.0
             pace = self.remaining / steps_left
