@@ -147,7 +147,7 @@ def learned_threshold(rate: float, discrete: bool) -> float | None:
 
     With 1e2 answers over 1e5 steps the untrained high level's few asks fall in states that do
     not matter and cannot yet tell it which teacher helps; gated, they go where the student's
-    own logits say the choice matters (MountainCar, 5 seeds: -114.0 +- 1.0 gated, -132.8 in
+    own logits say the choice matters (MountainCar, 5 seeds: -114.0 +- 0.9 gated, -132.8 in
     every state). With more, the gate gained nothing measured (MountainCar 1e3 and 1e4, DoorKey
     1 optimal + 2 random at 1e4: docs/advice.md), so every state stays open there.
 
