@@ -139,11 +139,12 @@ answers are scarce: there the learned rule asks only where importance flags the 
 (:func:`learned_threshold`)."""
 
 
-def learned_threshold(rate: float, discrete: bool) -> float | None:
-    """The importance gate of ``ask learned`` with no ``ask_threshold`` given, decided at the
-    first rollout from the even asking ``rate`` of the budget (answers per step): importance's
-    1.0 (:data:`DEFAULT_THRESHOLDS`) where answers are scarce (``rate`` below
-    :data:`SCARCE_RATE`) and actions discrete; None (every state) otherwise.
+def learned_threshold(rate: float) -> float | None:
+    """The importance gate of ``ask learned`` with no ``ask_threshold`` given and discrete
+    actions (:attr:`AdviceLedger.gate_when_scarce`), decided at the first rollout from the even
+    asking ``rate`` of the budget (answers per step): importance's 1.0
+    (:data:`DEFAULT_THRESHOLDS`) where answers are scarce (``rate`` below :data:`SCARCE_RATE`);
+    None (every state) otherwise.
 
     With 1e2 answers over 1e5 steps the untrained high level's few asks fall in states that do
     not matter and cannot yet tell it which teacher helps; gated, they go where the student's
@@ -151,12 +152,10 @@ def learned_threshold(rate: float, discrete: bool) -> float | None:
     every state). With more, the gate gained nothing measured (MountainCar 1e3 and 1e4, DoorKey
     1 optimal + 2 random at 1e4: docs/advice.md), so every state stays open there.
 
-    >>> learned_threshold(100 / 100_000, True), learned_threshold(1e4 / 1e5, True)
-    (1.0, None)
-    >>> learned_threshold(0.001, False), learned_threshold(0.01, True)   # Box actions; the line
-    (None, None)
+    >>> learned_threshold(100 / 100_000), learned_threshold(1e4 / 1e5), learned_threshold(0.01)
+    (1.0, None, None)
     """
-    return DEFAULT_THRESHOLDS["learned"] if discrete and rate < SCARCE_RATE else None
+    return DEFAULT_THRESHOLDS["learned"] if rate < SCARCE_RATE else None
 
 
 def starting_price(n_teachers: int, pace: float, cost: float) -> float:
@@ -491,7 +490,7 @@ class AdviceLedger:
             self.price = starting_price(len(self.costs), pace, cost)
             if self.gate_when_scarce:
                 rate = pace / cost if cost > 0 else math.inf  # free answers are never scarce
-                self.threshold = learned_threshold(rate, discrete=True)
+                self.threshold = learned_threshold(rate)
 
     def repace(self, spent: float, steps: int, remaining: float, steps_left: int) -> None:
         """After a rollout of ``steps`` that spent ``spent``, from ``remaining`` over
