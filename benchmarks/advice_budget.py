@@ -175,12 +175,13 @@ def case_table(case: str, by_key: dict[tuple, list[dict[str, Any]]]) -> list[str
         rank = learners.index(learner) if learner in learners else 99
         return (float(budget) if budget else -1.0, -availability, rank)
 
+    decimals = 3 if peers.is_doorkey(case) else 1  # DoorKey's returns lie in [0, 1]
     lines = []
     for key in sorted(by_key, key=order):
         learner, budget, availability = key
         rs = by_key[key]
         steps = rs[0]["curve"][-1][0]
-        score = _mean_std([final_score(r) for r in rs])
+        score = _mean_std([final_score(r) for r in rs], decimals)
         if learner == "ppo":
             lines.append(f"| {case} | PPO alone | - | - | {len(rs)} | {steps} | {score} | 0 |")
             continue
