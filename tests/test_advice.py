@@ -4,6 +4,7 @@ teachers never chosen nor asked, the answers counted, and bad input said in one 
 from __future__ import annotations
 
 import hashlib
+import json
 import math
 
 import gymnasium as gym
@@ -223,6 +224,9 @@ def test_per_teacher_names():
     assert per_teacher({"random_2": 0.5}, names, "availability", 1.0).tolist() == [1, 1, 0.5]
     with pytest.raises(ConfigError, match="names teacher 'oracle', not one of this run's"):
         per_teacher({"oracle": 2.0}, names, "teacher_cost", 1.0)
+    # a teacher's own name wins over its group's, whichever comes first
+    for given in ({"random_1": 5.0, "random": 2.0}, {"random": 2.0, "random_1": 5.0}):
+        assert per_teacher(given, names, "teacher_cost", 1.0).tolist() == [1.0, 5.0, 2.0]
 
 
 # --------------------------------------------------------------------------- in training
@@ -249,6 +253,23 @@ def test_a_selector_that_reads_no_logits_never_gets_an_absent_teacher(selector):
     model.learn(128)
     assert gone.rows == 0 and model.advice.answers[0] == 0
     assert not (model.collect().choices == 0).any()
+    if selector == "ucb1":  # its arm is never credited with the agent's episodes
+        assert model.selector.counts[0] == 0 and model.selector.counts[1:].sum() > 0
+
+
+def test_a_teacher_the_budget_cannot_pay_does_not_hold_the_audition_open():
+    """The graduate variant's audition waits for each teacher's led episodes; one whose answers
+    no longer fit in the budget can never lead, so it is not waited for: the audition ends and
+    the labels paid for are copied (weaning below 1), instead of nothing ever being copied."""
+    costly, cheap = Spy("costly"), Spy("cheap")
+    model = _cartpole(
+        [costly, cheap], teacher_cost={"costly": 1000.0}, advice_budget=100, ask="early"
+    )
+    assert model.config.teacher_episodes > 0
+    model.learn(1500)
+    assert costly.rows == 0 and model.advice.exhausted
+    assert model.solo.gone.all() and not model.solo.auditioning
+    assert model.solo.weaning < 1.0
 
 
 def test_a_teacher_half_present_acts_and_labels_only_where_present():
@@ -447,6 +468,7 @@ def test_a_budget_never_reached_changes_nothing():
         ({"advice_budget": -1}, "advice_budget must be >= 0"),
         ({"ask": "sometimes"}, "unknown ask 'sometimes'"),
         ({"teacher_cost": {"z": 2.0}}, "names teacher 'z', not one of this run's teachers"),
+        ({"ask": "learned", "selector": "ucb1"}, "selector 'ucb1' reads no logits"),
     ],
 )
 def test_bad_advice_settings_say_what(settings, message):
@@ -467,6 +489,18 @@ def test_bad_teacher_spec_and_rules_for_box_actions():
             ask_threshold=1.0,
             advice_budget=10,
         )
+
+
+def test_cli_advice_flags_add_to_set_teacher_by_teacher(tmp_path):
+    """--availability / --teacher-cost on top of --set's mapping: merged per teacher."""
+    out = tmp_path / "r"
+    argv = ["train", "--env", "doorkey", "--teachers", "optimal,random", "--steps", "64"]
+    argv += ["--set", "availability={optimal: 0.5}", "--availability", "random=0.25"]
+    argv += ["--set", "teacher_cost={optimal: 2}", "--teacher-cost", "random=3"]
+    assert main([*argv, "--out", str(out), "--no-progress"]) == 0
+    teachers = json.loads((out / "result.json").read_text())["advice"]["teachers"]
+    assert teachers["optimal"]["availability"] == 0.5 and teachers["random"]["availability"] == 0.25
+    assert teachers["optimal"]["cost"] == 2.0 and teachers["random"]["cost"] == 3.0
 
 
 @pytest.mark.parametrize(

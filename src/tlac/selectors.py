@@ -19,6 +19,7 @@ from typing import Protocol
 
 import numpy as np
 
+from tlac.algorithms.advice import MASKED_LOGIT
 from tlac.algorithms.nets import np_sample_categorical
 
 
@@ -117,9 +118,15 @@ class UCB1Selector:
         self.high = -math.inf
 
     def select(self, high_logits: np.ndarray | None, episode_starts: np.ndarray) -> np.ndarray:
+        """At each episode start, the arm of the best UCB1 score among those that can answer
+        (under limited advice, a teacher absent or unaffordable has its logit at
+        ``MASKED_LOGIT``: it is not picked, so its arm is never credited with an episode the
+        agent played)."""
         for i in np.flatnonzero(episode_starts):
             value_range = self.high - self.low if self.high > self.low else 1.0
             scores = ucb1_scores(self.sums, self.counts, self.c, value_range)
+            if high_logits is not None:
+                scores = np.where(high_logits[i] > MASKED_LOGIT / 2, scores, -np.inf)
             best = np.flatnonzero(scores == scores.max())
             self.current[i] = int(self.rng.choice(best))  # ties (e.g. untried arms): at random
         return self.current.copy()

@@ -316,10 +316,13 @@ def per_teacher(
     """``(K,)``: a per-teacher setting (``teacher_cost``, ``availability``) given by name, in
     the order of ``names``; ``default`` where a teacher is not named. A name shared by several
     teachers (``random`` for ``random_1`` and ``random_2``, as tlac names duplicates) sets them
-    all. A name that is no teacher's raises one ConfigError listing the teachers.
+    all; a teacher's own name wins over its group's, in whatever order they are given. A name
+    that is no teacher's raises one ConfigError listing the teachers.
 
     >>> per_teacher({"random": 2.0}, ["optimal", "random_1", "random_2"], "teacher_cost", 1.0)
     array([1., 2., 2.])
+    >>> per_teacher({"random_1": 5.0, "random": 2.0}, ["random_1", "random_2"], "cost", 1.0)
+    array([5., 2.])
     """
     return np.array([float(v) for v in per_teacher_values(values, names, setting, default)])
 
@@ -336,7 +339,8 @@ def per_teacher_values(
     from tlac.errors import ConfigError
 
     out = [default] * len(names)
-    for key, value in values.items():
+    # groups first, so that a teacher's own name (applied after them) wins
+    for key, value in sorted(values.items(), key=lambda item: item[0] in names):
         hits = [i for i, n in enumerate(names) if n == key]
         if not hits:
             hits = [

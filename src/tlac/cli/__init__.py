@@ -127,6 +127,22 @@ def _advice_overrides(args: argparse.Namespace) -> dict[str, Any]:
     return out
 
 
+def with_flags(overrides: dict[str, Any], flags: dict[str, Any]) -> dict[str, Any]:
+    """``--set``'s settings with the advice flags' on top: a per-teacher mapping given both
+    ways is merged teacher by teacher (the flag's value wins), not replaced whole.
+
+    >>> with_flags({"availability": {"pd": 0.5}, "n_steps": 8}, {"availability": {"coin": 0.2}})
+    {'availability': {'pd': 0.5, 'coin': 0.2}, 'n_steps': 8}
+    """
+    out = dict(overrides)
+    for key, value in flags.items():
+        given = out.get(key)
+        out[key] = (
+            {**given, **value} if isinstance(given, dict) and isinstance(value, dict) else value
+        )
+    return out
+
+
 def _check_teacher_names(overrides: dict[str, Any], names: list[str]) -> None:
     """A --teacher-cost / --availability name that is no teacher of the run: one ConfigError
     before anything is built (tlac.algorithms.advice.per_teacher)."""
@@ -184,7 +200,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
         steps=args.steps,
         selector=args.selector,
         preset=args.preset,
-        overrides={**_parse_overrides(args.set), **_advice_overrides(args)},
+        overrides=with_flags(_parse_overrides(args.set), _advice_overrides(args)),
         eval_every=args.eval_every,
         eval_episodes=args.eval_episodes,
         log_interval=args.log_interval,

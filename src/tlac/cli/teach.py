@@ -49,7 +49,13 @@ def _positive_float(text: str) -> float:
 
 
 def _cmd_teach(args: argparse.Namespace) -> int:
-    from tlac.cli import _check_teacher_names, _parse_overrides, _print_result, _teacher_numbers
+    from tlac.cli import (
+        _check_teacher_names,
+        _parse_overrides,
+        _print_result,
+        _teacher_numbers,
+        with_flags,
+    )
     from tlac.run import RunSpec, resolve_run, train_run
 
     require_extra("human", "tlac teach (a person as a teacher)", "starlette", "uvicorn")
@@ -70,7 +76,8 @@ def _cmd_teach(args: argparse.Namespace) -> int:
         overrides["advice_budget"] = args.advice_budget
     overrides = with_teach_defaults(overrides)
     if args.teacher_cost:
-        overrides["teacher_cost"] = _teacher_numbers("--teacher-cost", args.teacher_cost)
+        costs = {"teacher_cost": _teacher_numbers("--teacher-cost", args.teacher_cost)}
+        overrides = with_flags(overrides, costs)
     eval_every = args.eval_every or max(args.steps // 20, 1000)
     spec = RunSpec(
         env=args.env,

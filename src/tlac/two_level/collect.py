@@ -253,11 +253,12 @@ def start_solo_episodes(
     """The graduate variant's draw for the episodes that start (``model.solo.start``): solo,
     assisted or led by one teacher; ``named`` (:func:`named_leaders`, None: none) makes an
     episode a teacher-led one of the teacher it names. Under limited advice, a teacher whose
-    availability is 0 now is not auditioned, and leaders are limited (:func:`limit_leaders`).
-    Returns the per-environment solo flags."""
+    availability is 0 now, or whose answers the budget left no longer pays for (a budget never
+    grows back), is not auditioned, so the audition ends and the labels paid for are copied;
+    leaders are limited (:func:`limit_leaders`). Returns the per-environment solo flags."""
     solo = model.solo
     if limits is not None:
-        solo.gone[:] = limits.availability == 0
+        solo.gone[:] = (limits.availability == 0) | ~limits.affordable()
     active = solo.start(model._episode_starts, None if limits is None else limits.can_lead())
     if named is not None:
         solo.active[named >= 0] = False

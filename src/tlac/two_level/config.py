@@ -433,6 +433,12 @@ class TLACConfig:
                 "TL-AC setting teacher_episodes needs solo episodes (solo_budget > 0), "
                 f"got teacher_episodes {self.teacher_episodes} with solo_budget {self.solo_budget}"
             )
+        if self.advice.ask == "learned" and self.selector != "learned":
+            raise ConfigError(
+                f"TL-AC setting ask 'learned' prices the learned high level's choices; selector "
+                f"{self.selector!r} reads no logits, so nothing would pace the answers: expected "
+                "selector learned, or another ask (always, early, importance, uncertainty, mistake)"
+            )
         for name, accepted in (
             ("optimizer", ["rmsprop_tf", "adam"]),
             ("update_rule", ["joint", "per_level"]),

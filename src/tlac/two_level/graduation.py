@@ -249,7 +249,8 @@ class SoloEpisodes:
         self.led_squares = np.zeros(n_teachers)  # ... and their squares, summed
         self.led_counts = np.zeros(n_teachers, dtype=np.int64)
         # per teacher: gone now (its availability, a schedule or a function, is 0 at this
-        # step): the audition does not wait for it (collect sets it; tlac.algorithms.advice)
+        # step, or the budget left no longer pays for its answers): the audition does not
+        # wait for it (collect sets it; tlac.algorithms.advice)
         self.gone = np.zeros(n_teachers, dtype=bool)
         # per teacher: one that leads only when named from outside (a person, who leads by
         # taking an episode over: tlac.human): never awaited nor judged by the audition, never
@@ -290,10 +291,11 @@ class SoloEpisodes:
         episodes) and every teacher's own return (``MIN_LED_EPISODES`` led episodes) are
         measured. These first episodes are played in that order (:meth:`start`) and nothing is
         copied meanwhile (:attr:`weaning` 1): a teacher is copied only once it can be judged.
-        A teacher gone now (:attr:`gone`: its availability schedule is at 0) is not waited
-        for; one that arrives later (its schedule rises from 0) reopens the audition. A
-        teacher that leads only when named from outside (:attr:`outside`: a person) is never
-        waited for: with nobody at the page, the audition would never end.
+        A teacher gone now (:attr:`gone`: its availability schedule is at 0, or the budget
+        no longer pays for its answers) is not waited for; one that arrives later (its
+        schedule rises from 0) reopens the audition. A teacher that leads only when named
+        from outside (:attr:`outside`: a person) is never waited for: with nobody at the page,
+        the audition would never end.
         Before, the copy began at the first update, and one deterministic teacher that never
         reaches a sparse goal took the student's exploration away before it could be judged
         (Acrobot: the low level's entropy at 0.04 of 1.10 nats after 4k steps; the student
