@@ -31,7 +31,8 @@ from tlac.algorithms.advice import (
 from tlac.cli import main
 from tlac.errors import ConfigError
 from tlac.recording import Recorder
-from tlac.teachers import TeacherSpec
+from tlac.teachers import RandomTeacher, TeacherSpec
+from tlac.two_level import losses
 
 torch.set_num_threads(1)
 
@@ -408,6 +409,37 @@ def test_learned_asking_gates_by_importance_where_answers_are_scarce():
 
     box = TLAC(gym.make("Pendulum-v1"), teachers=[lambda o: np.zeros(1)], advice_budget=10)
     assert box.config.advice.ask == "learned" and not box.advice.gate_when_scarce
+
+
+def test_the_unlikelihood_of_an_ask_that_said_nothing_by_hand():
+    """ask learned: -log(1 - p) of the teacher chosen where its answer said nothing; its
+    gradient lowers that choice in that row and leaves every other row as it was."""
+    logits = torch.zeros(2, 3, requires_grad=True)  # 2 teachers and the agent, p = 1/3 each
+    choices, wasted = torch.tensor([1, 0]), torch.tensor([1.0, 0.0])
+    loss = losses.wasted_ask_loss(logits, choices, wasted)
+    assert float(loss.detach()) == pytest.approx(-math.log(2 / 3) / 2)  # over the 2 rows
+    loss.backward()
+    # d/dz_j of -log(1 - p_1) = p_1 (1[j = 1] - p_j) / (1 - p_1): 1/3 for j = 1, -1/6 for the
+    # others, halved by the mean over rows; a gradient step lowers teacher 1 in row 0 only
+    assert logits.grad[0].tolist() == pytest.approx([-1 / 12, 1 / 6, -1 / 12])
+    assert logits.grad[1].abs().max() == 0
+    info = torch.tensor([[0.0, 1.0], [0.0, 0.0]])  # teacher 0 says nothing in row 0
+    labelled = torch.tensor([[True, False], [True, False]])
+    assert losses.wasted_asks(torch.tensor([0, 0]), info, labelled).tolist() == [1.0, 0.0]
+    assert losses.wasted_asks(torch.tensor([2, 2]), info, labelled).tolist() == [0.0, 0.0]
+
+
+@pytest.mark.parametrize(("second", "logged"), [("random", True), ("spy", False)])
+def test_asks_that_said_nothing_are_counted_under_learned_asking(tmp_path, second, logged):
+    """A teacher whose advice is uniform (RandomTeacher) paid for under ask learned is an ask
+    that said nothing (train/wasted_asks); a deterministic one never is."""
+    space = gym.make("CartPole-v1").action_space
+    other = RandomTeacher(space, seed=0, name="coin") if second == "random" else Spy("coin")
+    recorder = Recorder(tmp_path, ["pd", "coin", "agent"], log_interval=64)
+    model = _cartpole([Spy("pd"), other], advice_budget=300, ask="learned", recorder=recorder)
+    model.learn(1024)
+    recorder.close(model.num_timesteps)
+    assert ("train/wasted_asks" in (tmp_path / "progress.csv").read_text()) is logged
 
 
 def test_mistake_correcting_labels_only_disagreements():

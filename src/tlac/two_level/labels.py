@@ -109,13 +109,18 @@ def store_paid_labels(
     data: dict[str, torch.Tensor],
     teacher_obs: torch.Tensor,
     labelled: torch.Tensor,
-) -> None:
+) -> torch.Tensor:
     """:func:`store_labels` for the answers already paid for (``labelled``), asked here on the
-    labelled states alone (``teacher_obs``: the rollout's states as the teachers see them)."""
+    labelled states alone (``teacher_obs``: the rollout's states as the teachers see them).
+    Returns how much each answer said, ``(K, n)`` (``nets.advice_information``; 0 in the rows
+    not labelled)."""
     keep = labelled.any(dim=1)
+    information = torch.zeros(labelled.shape[1], labelled.shape[0])
     if bool(keep.any()):
         advice = advice_on(nets, teachers, teacher_obs[keep], labelled[keep])
         buffer.add(data["obs"][keep], advice, labelled[keep])
+        information[:, keep] = nets.advice_information(advice).to(information.dtype)
+    return information
 
 
 def make_advice_ledger(

@@ -259,6 +259,40 @@ def approx_kl(log_prob: torch.Tensor, old_log_prob: torch.Tensor) -> torch.Tenso
     return ((torch.exp(log_ratio) - 1) - log_ratio).mean()
 
 
+def wasted_asks(
+    choices: torch.Tensor, information: torch.Tensor, labelled: torch.Tensor
+) -> torch.Tensor:
+    """``(n,)`` 0/1: the rows where the high level chose a teacher (``choices`` ``(n,)``, ``K``:
+    the agent) whose answer, paid for, said nothing there (its :func:`advice_information`
+    ``(K, n)`` at most :data:`SILENT_INFORMATION`, ``labelled`` ``(n, K)`` True): a random
+    teacher anywhere, a partial one outside the region it knows.
+
+    >>> info = torch.tensor([[1.0, 0.0, 0.0], [0.0, 0.0, 0.0]])  # teacher 0 speaks in row 0
+    >>> asked = torch.tensor([[True, False], [True, False], [False, False]])
+    >>> wasted_asks(torch.tensor([0, 0, 2]), info, asked).tolist()
+    [0.0, 1.0, 0.0]
+    """
+    k = information.shape[0]
+    rows = torch.arange(len(choices))
+    chosen = choices.clamp(max=k - 1)
+    said_nothing = information[chosen, rows] <= SILENT_INFORMATION
+    return ((choices < k) & labelled[rows, chosen] & said_nothing).float()
+
+
+def wasted_ask_loss(high_logits: torch.Tensor, choices: torch.Tensor, wasted: torch.Tensor):
+    """The unlikelihood of the asks that said nothing, ``-log(1 - pi_high(e|s))`` summed over
+    the ``wasted`` rows (:func:`wasted_asks`) and divided by the minibatch's rows: it lowers
+    the high level's choice of that teacher in those states only, so a teacher is asked where
+    its answers say something (ask learned under a budget; docs/advice.md).
+
+    >>> logits = torch.log(torch.tensor([[0.5, 0.5], [0.5, 0.5]]))
+    >>> round(float(wasted_ask_loss(logits, torch.tensor([0, 1]), torch.tensor([1.0, 0.0]))), 4)
+    0.3466
+    """
+    p = torch.softmax(high_logits, -1).gather(1, choices.view(-1, 1)).squeeze(1)
+    return -(torch.log1p(-p.clamp(max=1 - 1e-6)) * wasted).sum() / len(choices)
+
+
 def normalize(advantages: torch.Tensor, eps: float = 1e-8) -> torch.Tensor:
     if advantages.numel() < 2:
         return advantages

@@ -63,13 +63,15 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
         # nothing is copied now (the audition, a weaned copy): no label is asked, but the
         # answers already paid for (the teachers that acted) are kept, at no cost
         paid = charge_labels(model.advice, data, model.n_teachers, paid_only=True)
-        store_paid_labels(nets, teachers, buffer, data, teacher_obs, paid)
+        information = store_paid_labels(nets, teachers, buffer, data, teacher_obs, paid)
+        note_wasted_asks(model, data, information, paid)
     if imitates and model.limited_advice:
         labelled = charge_labels(model.advice, data, model.n_teachers)
         advice = advice_on(nets, teachers, teacher_obs, labelled)
         store_labels(buffer, data["obs"], labelled, advice)  # the states some teacher labelled
         information = nets.advice_information(advice)
         record_information(model, information, labelled.T)
+        note_wasted_asks(model, data, information, labelled)
         if cfg.low_level_data == "silent":  # where no teacher asked says anything
             silent = losses.silent_information(information * labelled.T)
     elif imitates or measures:
@@ -114,6 +116,8 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
         out["train/competence"] = model.solo.competence
         if cfg.wean_imitation:  # the competence the imitation is weaned by
             out["train/weaning"] = model.solo.weaning
+    if "wasted_ask" in data:  # ask learned: the answers paid for that said nothing
+        out["train/wasted_asks"] = float(data["wasted_ask"].sum())
     if log.imitation:
         out["train/imitation_loss"] = float(torch.stack(log.imitation).mean())
         out["train/distill_coef"] = distill
@@ -123,6 +127,17 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
         for lv, run in zip(["low", "high"], running.tolist(), strict=False):
             out[f"train/stopped_{lv}"] = float(not run)
     return out
+
+
+def note_wasted_asks(
+    model: Any, data: dict[str, torch.Tensor], information: torch.Tensor, labelled: torch.Tensor
+) -> None:
+    """ask learned under a budget: mark in ``data`` the rows where the high level paid for an
+    answer that said nothing (losses.wasted_asks), for its unlikelihood term (minibatch_loss)."""
+    if model.config.advice.ask == "learned" and model.train_high:
+        wasted = losses.wasted_asks(data["choices"], information, labelled)
+        if bool(wasted.any()):  # (none: the update is exactly as without the term)
+            data["wasted_ask"] = wasted
 
 
 def record_information(
@@ -256,6 +271,10 @@ def minibatch_loss(
     )
     vf_loss = losses.value_loss(values, data["returns"][idx])  # Eq. 5
     loss = policy_losses.sum() + cfg.vf_coef * vf_loss
+    if "wasted_ask" in data:  # ask learned under a budget: not again where it said nothing
+        loss = loss + losses.wasted_ask_loss(
+            high_logits, data["choices"][idx], data["wasted_ask"][idx]
+        )
     if replayed is not None:  # the imitation term on the replayed rows
         assert replay is not None and distill is not None
         advice, information = replay.advice[:, replayed], replay.information[:, replayed]
