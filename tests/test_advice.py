@@ -501,6 +501,8 @@ def test_a_budget_never_reached_changes_nothing():
         ({"ask": "sometimes"}, "unknown ask 'sometimes'"),
         ({"teacher_cost": {"z": 2.0}}, "names teacher 'z', not one of this run's teachers"),
         ({"ask": "learned", "selector": "ucb1"}, "selector 'ucb1' reads no logits"),
+        ({"ask_threshold": 1.0}, "ask 'always' asks in every state"),
+        ({"ask": "early", "ask_threshold": 1.0}, "ask 'early' asks in every state"),
     ],
 )
 def test_bad_advice_settings_say_what(settings, message):

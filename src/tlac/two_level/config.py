@@ -433,6 +433,13 @@ class TLACConfig:
                 "TL-AC setting teacher_episodes needs solo episodes (solo_budget > 0), "
                 f"got teacher_episodes {self.teacher_episodes} with solo_budget {self.solo_budget}"
             )
+        if self.advice.ask_threshold is not None and self.advice.ask in ("always", "early"):
+            raise ConfigError(
+                f"TL-AC setting ask_threshold gates the asks of importance, uncertainty, mistake "
+                f"and learned; ask {self.advice.ask!r} asks in every state (without a budget "
+                "and an ask, the default is 'always'): expected one of those rules, or no "
+                "ask_threshold"
+            )
         if self.advice.ask == "learned" and self.selector != "learned":
             raise ConfigError(
                 f"TL-AC setting ask 'learned' prices the learned high level's choices; selector "
