@@ -78,9 +78,10 @@ def collect(model: Any, callbacks: LearnCallbacks | None = None) -> Rollout | No
             pacing = (limits.spent, limits.remaining, steps_left)
         if rule == "mistake":
             ro.corrected = np.zeros((T, E), dtype=bool)
-    # ask learned and mistake: labels come only from the teacher that acted (learned: the
-    # high level's ask; mistake: where it disagreed with the student), none from the others
-    labels_from_gate = rule not in ("learned", "mistake")
+    # ask learned on a budget and mistake: labels come only from the teacher that acted
+    # (learned: the high level's ask; mistake: where it disagreed with the student), none from
+    # the others; learned without a budget: answers are free, every teacher present labels
+    labels_from_gate = rule != "mistake" and not (limits is not None and limits.paced)
     # teachers that answer only when they act (a person: tlac.human) give no other labels, and
     # teachers that say when they are there (a person's open tab, a recording's known states)
     outside = outside_teachers(model.teachers) if limits is not None else None

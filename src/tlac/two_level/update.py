@@ -134,7 +134,7 @@ def note_wasted_asks(
 ) -> None:
     """ask learned under a budget: mark in ``data`` the rows where the high level paid for an
     answer that said nothing (losses.wasted_asks), for its unlikelihood term (minibatch_loss)."""
-    if model.config.advice.ask == "learned" and model.train_high:
+    if model.advice is not None and model.advice.paced and model.train_high:
         wasted = losses.wasted_asks(data["choices"], information, labelled)
         if bool(wasted.any()):  # (none: the update is exactly as without the term)
             data["wasted_ask"] = wasted
