@@ -279,7 +279,9 @@ def wasted_asks(
     return ((choices < k) & labelled[rows, chosen] & said_nothing).float()
 
 
-def wasted_ask_loss(high_logits: torch.Tensor, choices: torch.Tensor, wasted: torch.Tensor):
+def wasted_ask_loss(
+    high_logits: torch.Tensor, choices: torch.Tensor, wasted: torch.Tensor
+) -> torch.Tensor:
     """The unlikelihood of the asks that said nothing, ``-log(1 - pi_high(e|s))`` summed over
     the ``wasted`` rows (:func:`wasted_asks`) and divided by the minibatch's rows: it lowers
     the high level's choice of that teacher in those states only, so a teacher is asked where
