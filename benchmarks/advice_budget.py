@@ -18,7 +18,8 @@ after the audition has spent a budget of 1e3. ``ask learned`` on a budget sets i
 
 Every run is a JSON file under ``--out``/runs, skipped when present, so a killed grid resumes
 where it stopped. ``--phase report`` (also run after every grid) writes ``report.md`` (the
-student alone at the end and the answers used, mean +- std over seeds) and one figure per case
+student alone at the end beside the training return, and the answers used, mean +- std over
+seeds) and one figure per case
 (``<case>.png``: the student alone against the steps, one line per rule, budget and
 availability, PPO alone dotted; beside it the answers used; with several budgets, the student
 alone at the end against the budget).
@@ -143,6 +144,12 @@ def final_score(run: dict[str, Any]) -> float:
     return float(run["curve"][-1][1])
 
 
+def final_training_return(run: dict[str, Any]) -> float | None:
+    """The training episodes' return at the run's last evaluation (None: no episode yet)."""
+    value = run["curve"][-1][3]
+    return None if value is None else float(value)
+
+
 def answers_used(run: dict[str, Any]) -> float:
     return float(sum(t["answers"] for t in run["advice"]["teachers"].values()))
 
@@ -182,13 +189,17 @@ def case_table(case: str, by_key: dict[tuple, list[dict[str, Any]]]) -> list[str
         rs = by_key[key]
         steps = rs[0]["curve"][-1][0]
         score = _mean_std([final_score(r) for r in rs], decimals)
+        returns = [v for v in map(final_training_return, rs) if v is not None]
+        training = _mean_std(returns, decimals) if returns else "-"
         if learner == "ppo":
-            lines.append(f"| {case} | PPO alone | - | - | {len(rs)} | {steps} | {score} | 0 |")
+            lines.append(
+                f"| {case} | PPO alone | - | - | {len(rs)} | {steps} | {score} | {training} | 0 |"
+            )
             continue
         used = _mean_std([answers_used(r) for r in rs], 0)
         lines.append(
             f"| {case} | {learner} | {budget} | {availability:g} | {len(rs)} | {steps} "
-            f"| {score} | {used} |"
+            f"| {score} | {training} | {used} |"
         )
     return lines
 
@@ -346,8 +357,8 @@ def report(out: Path) -> str:
     runs = load_runs(out)
     lines = [
         "| case | rule | budget | availability | seeds | steps | student alone at the end "
-        "| answers used |",
-        "|---|---|---|---|---|---|---|---|",
+        "| training return at the end | answers used |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     verdicts = [
         "",

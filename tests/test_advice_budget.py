@@ -1,6 +1,6 @@
 """The advice budget benchmark (benchmarks/advice_budget.py): its runs' names, one tiny grid
 that writes a run per file and skips it when present, and its report of the student alone
-beside the answers used."""
+beside the training return and the answers used."""
 
 from __future__ import annotations
 
@@ -22,8 +22,9 @@ _spec.loader.exec_module(bench)
 torch.set_num_threads(1)
 
 
-def _fake(case, learner, budget, availability, seed, score, answers):
-    run = {"case": case, "learner": learner, "seed": seed, "curve": [[1000, score, 1.0, None]]}
+def _fake(case, learner, budget, availability, seed, score, answers, training=None):
+    curve = [[1000, score, 1.0, training]]
+    run = {"case": case, "learner": learner, "seed": seed, "curve": curve}
     if learner != "ppo":
         run.update(
             budget=budget,
@@ -34,23 +35,24 @@ def _fake(case, learner, budget, availability, seed, score, answers):
     return run
 
 
-def test_report_shows_the_student_alone_beside_the_answers(tmp_path):
+def test_report_shows_the_student_alone_beside_training_and_answers(tmp_path):
     runs = tmp_path / "runs"
     runs.mkdir()
     for run in [
-        _fake("CartPole-v1", "learned", "1e3", 1.0, 0, 500.0, 900),
-        _fake("CartPole-v1", "learned", "1e3", 1.0, 1, 400.0, 1000),
-        _fake("CartPole-v1", "early", "1e3", 0.5, 0, 200.0, 1000),
-        _fake("CartPole-v1", "ppo", "", 1.0, 0, 150.0, 0),
+        _fake("CartPole-v1", "learned", "1e3", 1.0, 0, 500.0, 900, training=300.0),
+        _fake("CartPole-v1", "learned", "1e3", 1.0, 1, 400.0, 1000, training=200.0),
+        _fake("CartPole-v1", "early", "1e3", 0.5, 0, 200.0, 1000),  # no training episode yet
+        _fake("CartPole-v1", "ppo", "", 1.0, 0, 150.0, 0, training=120.0),
     ]:
         name = bench.run_name(
             run["case"], run["learner"], run.get("budget", ""), run.get("availability", 1), 0
         )
         (runs / f"{run['seed']}-{name}").write_text(json.dumps(run))
     table = bench.report(tmp_path)
-    assert "| CartPole-v1 | PPO alone | - | - | 1 | 1000 | 150.0 | 0 |" in table
-    assert "| CartPole-v1 | learned | 1e3 | 1 | 2 | 1000 | 450.0 +- 50.0 | 950 +- 50 |" in table
-    assert "| CartPole-v1 | early | 1e3 | 0.5 | 1 | 1000 | 200.0 | 1000 |" in table
+    assert "| CartPole-v1 | PPO alone | - | - | 1 | 1000 | 150.0 | 120.0 | 0 |" in table
+    learned = "| CartPole-v1 | learned | 1e3 | 1 | 2 | 1000 | 450.0 +- 50.0 | 250.0 +- 50.0 "
+    assert learned + "| 950 +- 50 |" in table
+    assert "| CartPole-v1 | early | 1e3 | 0.5 | 1 | 1000 | 200.0 | - | 1000 |" in table
     assert (tmp_path / "CartPole-v1.png").exists()
 
 
