@@ -3,6 +3,7 @@ teachers never chosen nor asked, the answers counted, and bad input said in one 
 
 from __future__ import annotations
 
+import csv
 import hashlib
 import json
 import math
@@ -258,6 +259,18 @@ def test_a_selector_that_reads_no_logits_never_gets_an_absent_teacher(selector):
         assert model.selector.counts[0] == 0 and model.selector.counts[1:].sum() > 0
 
 
+def test_ucb1_picks_a_teacher_whose_ask_gate_is_shut_at_the_episode_start():
+    # the gate never opens (threshold out of reach): the agent acts every row, but the
+    # episodes still go to UCB1's untried teacher arms first (the gate is per state)
+    teachers = [Spy("a"), Spy("b")]
+    model = _cartpole(
+        teachers, selector="ucb1", ask="importance", ask_threshold=1e9, teacher_episodes=0
+    )
+    model.learn(320)
+    assert model.selector.counts[:2].min() >= 1
+    assert teachers[0].rows == teachers[1].rows == 0
+
+
 def test_a_teacher_the_budget_cannot_pay_does_not_hold_the_audition_open():
     """The graduate variant's audition waits for each teacher's led episodes; one whose answers
     no longer fit in the budget can never lead, so it is not waited for: the audition ends and
@@ -429,17 +442,45 @@ def test_the_unlikelihood_of_an_ask_that_said_nothing_by_hand():
     assert losses.wasted_asks(torch.tensor([2, 2]), info, labelled).tolist() == [0.0, 0.0]
 
 
-@pytest.mark.parametrize(("second", "logged"), [("random", True), ("spy", False)])
-def test_asks_that_said_nothing_are_counted_under_learned_asking(tmp_path, second, logged):
+def _logged(folder, key):
+    """The values logged under ``key`` in a run's progress.csv (timestep, key, value rows)."""
+    with open(folder / "progress.csv", newline="") as f:
+        return [float(row["value"]) for row in csv.DictReader(f) if row["key"] == key]
+
+
+@pytest.mark.parametrize("second", ["random", "spy"])
+def test_asks_that_said_nothing_are_counted_under_learned_asking(tmp_path, second):
     """A teacher whose advice is uniform (RandomTeacher) paid for under ask learned is an ask
-    that said nothing (train/wasted_asks); a deterministic one never is."""
+    that said nothing (train/wasted_asks, logged at every update); a deterministic one never
+    is."""
     space = gym.make("CartPole-v1").action_space
     other = RandomTeacher(space, seed=0, name="coin") if second == "random" else Spy("coin")
     recorder = Recorder(tmp_path, ["pd", "coin", "agent"], log_interval=64)
     model = _cartpole([Spy("pd"), other], advice_budget=300, ask="learned", recorder=recorder)
     model.learn(1024)
     recorder.close(model.num_timesteps)
-    assert ("train/wasted_asks" in (tmp_path / "progress.csv").read_text()) is logged
+    wasted = _logged(tmp_path, "train/wasted_asks")
+    assert len(wasted) == len(_logged(tmp_path, "train/n_updates")) > 0  # zeros included
+    assert (sum(wasted) > 0) is (second == "random")
+
+
+def test_box_asks_are_not_judged_by_what_they_said(tmp_path):
+    """Box actions: a teacher's information comes from the few rows a budget pays for, where a
+    noisy teacher reads as a random one: no ask is marked as saying nothing."""
+    rng = np.random.default_rng(0)
+    noisy = TeacherSpec(lambda o: np.clip(rng.normal(0.0, 0.05, 1), -2, 2), name="noisy")
+    recorder = Recorder(tmp_path, ["noisy", "agent"], log_interval=64)
+    model = TLAC(
+        gym.make("Pendulum-v1"),
+        teachers=[noisy],
+        advice_budget=50,
+        ask="learned",
+        recorder=recorder,
+        **{"seed": 0, **SMALL},
+    )
+    model.learn(512)
+    recorder.close(model.num_timesteps)
+    assert model.advice.spent > 0 and not _logged(tmp_path, "train/wasted_asks")
 
 
 def test_mistake_correcting_labels_only_disagreements():

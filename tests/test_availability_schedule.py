@@ -226,6 +226,21 @@ def test_a_schedule_counts_as_limiting_and_the_audition_skips_a_gone_teacher():
     assert not solo.auditioning  # ... unless it has left: it is not waited for
 
 
+def test_a_helpful_teacher_the_budget_no_longer_pays_is_still_judged():
+    """no_teacher_helps: a teacher absent now is not judged, but one whose answers the budget
+    no longer pays for is: its labels paid for stay copied when it helped."""
+    solo = SoloEpisodes(1, budget=0.05, seed=0, min_episodes=1, n_teachers=2, teacher_share=0.2)
+    solo.solo_episodes, solo.floor, solo.untrained = 1, 0.0, 0.0
+    solo.led_counts[:] = [3, 3]
+    solo.led_sums[:] = [30.0, 0.0]  # teacher 0: 9, 10, 11 (helps); teacher 1: three 0s
+    solo.led_squares[:] = [302.0, 0.0]
+    assert not solo.no_teacher_helps
+    solo.gone[:] = [True, False]  # unaffordable: not awaited, still judged
+    assert not solo.no_teacher_helps
+    solo.absent[:] = [True, False]  # absent: only teacher 1 is judged, and it does not help
+    assert solo.no_teacher_helps
+
+
 # --------------------------------------------------------------------------- saving
 def test_a_schedule_survives_save_and_an_interrupted_run_resumes_exactly(tmp_path):
     settings = {

@@ -129,17 +129,20 @@ def _advice_overrides(args: argparse.Namespace) -> dict[str, Any]:
 
 def with_flags(overrides: dict[str, Any], flags: dict[str, Any]) -> dict[str, Any]:
     """``--set``'s settings with the advice flags' on top: a per-teacher mapping given both
-    ways is merged teacher by teacher (the flag's value wins), not replaced whole.
+    ways (by its name, or inside ``advice``) is merged teacher by teacher (the flag's value
+    wins), not replaced whole; the merged mapping goes by its name, which wins over
+    ``advice``'s (tlac.two_level.config.fold_advice_settings).
 
     >>> with_flags({"availability": {"pd": 0.5}, "n_steps": 8}, {"availability": {"coin": 0.2}})
     {'availability': {'pd': 0.5, 'coin': 0.2}, 'n_steps': 8}
+    >>> with_flags({"advice": {"availability": {"pd": 0.5}}}, {"availability": {"coin": 0.2}})
+    {'advice': {'availability': {'pd': 0.5}}, 'availability': {'pd': 0.5, 'coin': 0.2}}
     """
     out = dict(overrides)
+    nested = out.get("advice") if isinstance(out.get("advice"), dict) else {}
     for key, value in flags.items():
-        given = out.get(key)
-        out[key] = (
-            {**given, **value} if isinstance(given, dict) and isinstance(value, dict) else value
-        )
+        given = [g for g in (nested.get(key), out.get(key)) if isinstance(g, dict)]
+        out[key] = {k: v for g in (*given, value) for k, v in g.items()} if given else value
     return out
 
 

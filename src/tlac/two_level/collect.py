@@ -114,7 +114,12 @@ def collect(model: Any, callbacks: LearnCallbacks | None = None) -> Rollout | No
             if ro.high_shift is not None:  # the behaviour policy pays the price of asking
                 ro.high_shift[t] = limits.shift()
                 high_logits = priced_logits(high_logits, ro.high_shift[t])
-            choices = model.selector.select(mask_logits(high_logits, can), model._episode_starts)
+            # UCB1 picks once per episode: the teachers that can answer now, whatever the
+            # ask gate says in this first state (where it is shut, the agent acts that row)
+            pickable = can if model.selector.trains_high_level else limits.can_lead()
+            choices = model.selector.select(
+                mask_logits(high_logits, pickable), model._episode_starts
+            )
         named = named_leaders(model)  # the episodes that start led from outside (None: none)
         if model.solo is not None:  # graduate variant: some episodes are the student's alone
             solo = start_solo_episodes(model, limits, named)
@@ -259,7 +264,8 @@ def start_solo_episodes(
     leaders are limited (:func:`limit_leaders`). Returns the per-environment solo flags."""
     solo = model.solo
     if limits is not None:
-        solo.gone[:] = (limits.availability == 0) | ~limits.affordable()
+        solo.absent[:] = limits.availability == 0
+        solo.gone[:] = solo.absent | ~limits.affordable()
     active = solo.start(model._episode_starts, None if limits is None else limits.can_lead())
     if named is not None:
         solo.active[named >= 0] = False

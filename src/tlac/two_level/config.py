@@ -436,9 +436,9 @@ class TLACConfig:
         if self.advice.ask_threshold is not None and self.advice.ask in ("always", "early"):
             raise ConfigError(
                 f"TL-AC setting ask_threshold gates the asks of importance, uncertainty, mistake "
-                f"and learned; ask {self.advice.ask!r} asks in every state (without a budget "
-                "and an ask, the default is 'always'): expected one of those rules, or no "
-                "ask_threshold"
+                f"and learned; ask {self.advice.ask!r} asks in every state (the default where no "
+                "ask is named, but with a budget and the learned selector): expected one of "
+                "those rules, or no ask_threshold"
             )
         if self.advice.ask == "learned" and self.selector != "learned":
             raise ConfigError(

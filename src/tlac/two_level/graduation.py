@@ -252,6 +252,10 @@ class SoloEpisodes:
         # step, or the budget left no longer pays for its answers): the audition does not
         # wait for it (collect sets it; tlac.algorithms.advice)
         self.gone = np.zeros(n_teachers, dtype=bool)
+        # per teacher: absent now (its availability is 0 at this step): neither awaited nor
+        # judged (:attr:`no_teacher_helps`). One the budget no longer pays for is gone but
+        # still judged: its answers paid for stay in the buffer, to be copied if it helped
+        self.absent = np.zeros(n_teachers, dtype=bool)
         # per teacher: one that leads only when named from outside (a person, who leads by
         # taking an episode over: tlac.human): never awaited nor judged by the audition, never
         # picked to lead an episode here (collect sets it: outside_teachers)
@@ -366,10 +370,10 @@ class SoloEpisodes:
         against PPO alone's -82, issue 63). A random teacher's led episodes can beat an
         untrained student (Pendulum), but nothing of it can be copied: judged to help, it took
         the episodes the student would have played alone, and its trust went to the untrained
-        actor beside it (seed 1: -1200.8 where PPO alone reaches -911.6). A teacher gone
-        now (:attr:`gone`) or one that leads only when named from outside (:attr:`outside`: a
-        person) is not judged."""
-        here = ~self.gone & ~self.outside
+        actor beside it (seed 1: -1200.8 where PPO alone reaches -911.6). A teacher absent
+        now (:attr:`absent`) or one that leads only when named from outside (:attr:`outside`:
+        a person) is not judged; one the budget no longer pays for is."""
+        here = ~self.absent & ~self.outside
         if (
             self.teacher_share <= 0
             or not np.isfinite(self.untrained)

@@ -116,8 +116,8 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
         out["train/competence"] = model.solo.competence
         if cfg.wean_imitation:  # the competence the imitation is weaned by
             out["train/weaning"] = model.solo.weaning
-    if "wasted_ask" in data:  # ask learned: the answers paid for that said nothing
-        out["train/wasted_asks"] = float(data["wasted_ask"].sum())
+    if judges_asks(model):  # ask learned: the answers paid for that said nothing
+        out["train/wasted_asks"] = float(data["wasted_ask"].sum()) if "wasted_ask" in data else 0.0
     if log.imitation:
         out["train/imitation_loss"] = float(torch.stack(log.imitation).mean())
         out["train/distill_coef"] = distill
@@ -129,12 +129,23 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
     return out
 
 
+def judges_asks(model: Any) -> bool:
+    """Whether the high level's asks are judged by what their answers said (note_wasted_asks):
+    ask learned under a budget, with discrete actions only. A Box teacher's information is
+    measured from the rows it answered in a rollout (teachers.base.self_agreement_information),
+    and the few rows a budget pays for cannot tell a noisy teacher from a random one: both
+    would read as saying nothing."""
+    return (
+        model.advice is not None and model.advice.paced and model.train_high and model.nets.discrete
+    )
+
+
 def note_wasted_asks(
     model: Any, data: dict[str, torch.Tensor], information: torch.Tensor, labelled: torch.Tensor
 ) -> None:
     """ask learned under a budget: mark in ``data`` the rows where the high level paid for an
     answer that said nothing (losses.wasted_asks), for its unlikelihood term (minibatch_loss)."""
-    if model.advice is not None and model.advice.paced and model.train_high:
+    if judges_asks(model):
         wasted = losses.wasted_asks(data["choices"], information, labelled)
         if bool(wasted.any()):  # (none: the update is exactly as without the term)
             data["wasted_ask"] = wasted
