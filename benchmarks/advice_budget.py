@@ -22,7 +22,9 @@ student alone at the end beside the training return, and the answers used, mean 
 seeds) and one figure per case
 (``<case>.png``: the student alone against the steps, one line per rule, budget and
 availability, PPO alone dotted; beside it the answers used; with several budgets, the student
-alone at the end against the budget).
+alone at the end against the budget), and an overview (``--overview``, default
+``<out>/advice_budget.png``: the student alone at the end against the budget, one panel per
+case, learned, early and importance advising, PPO alone dotted).
 
     .venv/bin/python benchmarks/advice_budget.py --envs CartPole-v1 --budgets 1e3 --seeds 0
     .venv/bin/python benchmarks/advice_budget.py --phase report
@@ -276,6 +278,72 @@ def plot_case(out: Path, case: str, by_key: dict[tuple, list[dict[str, Any]]]) -
     plt.close(fig)
 
 
+OVERVIEW_RULES = ("learned", "early", "importance")
+"""The rules the overview figure draws: the issue's acceptance compares these."""
+
+
+def budget_positions(budgets: list[str]) -> dict[str, float]:
+    """Where each budget lies on the overview's log axis: its number of answers, and no limit
+    ten times past the largest finite one.
+
+    >>> budget_positions(["1e3", "inf", "1e2"])
+    {'1e2': 100.0, '1e3': 1000.0, 'inf': 10000.0}
+    """
+    finite = sorted(float(b) for b in budgets if math.isfinite(float(b)))
+    beyond = 10 * (finite[-1] if finite else 1e3)
+    return {
+        b: (float(b) if math.isfinite(float(b)) else beyond)
+        for b in sorted(budgets, key=lambda b: float(b))
+    }
+
+
+def plot_overview(path: Path, by_case: dict[str, dict[tuple, list[dict[str, Any]]]]) -> None:
+    """One panel per case: the student alone at the end (seed mean) against the budget, per
+    rule (filled markers: availability 1; hollow, dashed: 0.5), PPO alone dotted."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cases = [c for c in CASES if any(k[0] != "ppo" for k in by_case.get(c, {}))]
+    if not cases:
+        return
+    fig, axes = plt.subplots(1, len(cases), figsize=(4 * len(cases), 3.6), squeeze=False)
+    for ax, case in zip(axes[0], cases, strict=True):
+        by_key = by_case[case]
+        where = budget_positions(sorted({k[1] for k in by_key if k[0] != "ppo"}))
+        for i, rule in enumerate(OVERVIEW_RULES):
+            for availability in (1.0, 0.5):
+                keys = [(rule, b, availability) for b in where if (rule, b, availability) in by_key]
+                if not keys:
+                    continue
+                xs = [where[k[1]] for k in keys]
+                ys = [seed_mean(by_key[k]) for k in keys]
+                full = availability == 1.0
+                ax.plot(
+                    xs,
+                    ys,
+                    "-" if full else "--",
+                    marker="o",
+                    color=f"C{i}",
+                    markerfacecolor=None if full else "none",
+                    label=f"{rule}" + ("" if full else ", availability 0.5"),
+                )
+        ppo = by_key.get(("ppo", "", 1.0))
+        if ppo:
+            ax.axhline(seed_mean(ppo), color="grey", ls=":", label="PPO alone")
+        ax.set_xscale("log")
+        ax.set_xticks(list(where.values()))
+        ax.set_xticklabels(["no limit" if b == "inf" else b for b in where])
+        ax.set_xlabel("advice budget (answers)")
+        ax.set_title(case, fontsize=9)
+    axes[0][0].set_ylabel("student alone at the end (seed mean)")
+    axes[0][0].legend(fontsize=6)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
 def seed_mean(runs: list[dict[str, Any]] | None) -> float | None:
     """The seeds' mean of the student alone at the end (None: no run)."""
     return float(np.mean([final_score(r) for r in runs])) if runs else None
@@ -353,7 +421,9 @@ def verdict_table(
     return lines
 
 
-def report(out: Path) -> str:
+def report(out: Path, overview: Path | None = None) -> str:
+    """report.md's tables; the per-case figures in ``out``, and the overview figure
+    (:func:`plot_overview`) at ``overview`` (None: ``out``/advice_budget.png)."""
     runs = load_runs(out)
     lines = [
         "| case | rule | budget | availability | seeds | steps | student alone at the end "
@@ -372,14 +442,15 @@ def report(out: Path) -> str:
         "| learned >= the others | availability 0.5 / 1 |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
-    for case in CASES:
-        by_key = groups(runs, case)
+    by_case = {case: groups(runs, case) for case in CASES}
+    for case, by_key in by_case.items():
         if not by_key:
             continue
         lines += case_table(case, by_key)
         if any(k[0] == "learned" for k in by_key):
             verdicts += verdict_table(case, by_key, random_return(out, case))
         plot_case(out, case, by_key)
+    plot_overview(overview or out / "advice_budget.png", by_case)
     return "\n".join(lines + verdicts) + "\n"
 
 
@@ -421,6 +492,12 @@ def main() -> None:
         help="a TL-AC setting for every TL-AC run, on top of the benchmark's (repeatable)",
     )
     parser.add_argument("--out", type=Path, default=Path("results/advice-budget"))
+    parser.add_argument(
+        "--overview",
+        type=Path,
+        default=None,
+        help="where the overview figure goes (default: OUT/advice_budget.png)",
+    )
     args = parser.parse_args()
     for word in args.budgets:
         try:
@@ -448,7 +525,7 @@ def main() -> None:
                 f"[{done}/{len(runs)}] {path.stem}: student alone {final_score(result):.2f}{used}",
                 flush=True,
             )
-    table = report(args.out)
+    table = report(args.out, args.overview)
     command = shlex.join(["python", "benchmarks/advice_budget.py", *sys.argv[1:]])
     (args.out / "report.md").write_text(f"Made by `{command}`\n\n{table}")
     print(table)

@@ -54,6 +54,7 @@ def test_report_shows_the_student_alone_beside_training_and_answers(tmp_path):
     assert learned + "| 950 +- 50 |" in table
     assert "| CartPole-v1 | early | 1e3 | 0.5 | 1 | 1000 | 200.0 | - | 1000 |" in table
     assert (tmp_path / "CartPole-v1.png").exists()
+    assert (tmp_path / "advice_budget.png").exists()  # the overview: every case, one panel each
 
 
 def test_a_tiny_grid_writes_each_run_once(tmp_path, monkeypatch, capsys):
