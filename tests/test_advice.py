@@ -464,6 +464,21 @@ def test_asks_that_said_nothing_are_counted_under_learned_asking(tmp_path, secon
     assert (sum(wasted) > 0) is (second == "random")
 
 
+def test_the_paper_variant_measures_no_ask(tmp_path):
+    """The paper variant keeps no advice buffer: its answers are acted on, never measured, so
+    no ask is judged (and nothing is logged as if it were)."""
+    recorder = Recorder(tmp_path, ["pd", "coin", "agent"], log_interval=64)
+    space = gym.make("CartPole-v1").action_space
+    coin = RandomTeacher(space, seed=0, name="coin")
+    model = _cartpole(
+        [Spy("pd"), coin], variant="paper", advice_budget=300, ask="learned", recorder=recorder
+    )
+    assert model.advice_buffer is None
+    model.learn(512)
+    recorder.close(model.num_timesteps)
+    assert model.advice.spent > 0 and not _logged(tmp_path, "train/wasted_asks")
+
+
 def test_box_asks_are_not_judged_by_what_they_said(tmp_path):
     """Box actions: a teacher's information comes from the few rows a budget pays for, where a
     noisy teacher reads as a random one: no ask is marked as saying nothing."""

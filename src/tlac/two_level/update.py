@@ -131,12 +131,17 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
 
 def judges_asks(model: Any) -> bool:
     """Whether the high level's asks are judged by what their answers said (note_wasted_asks):
-    ask learned under a budget, with discrete actions only. A Box teacher's information is
+    ask learned under a budget, with an advice buffer (the paper variant keeps none: its
+    answers are acted on, never measured) and discrete actions. A Box teacher's information is
     measured from the rows it answered in a rollout (teachers.base.self_agreement_information),
     and the few rows a budget pays for cannot tell a noisy teacher from a random one: both
     would read as saying nothing."""
     return (
-        model.advice is not None and model.advice.paced and model.train_high and model.nets.discrete
+        model.advice is not None
+        and model.advice.paced
+        and model.train_high
+        and model.advice_buffer is not None
+        and model.nets.discrete
     )
 
 
