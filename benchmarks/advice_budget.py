@@ -222,10 +222,7 @@ def plot_case(out: Path, case: str, by_key: dict[tuple, list[dict[str, Any]]]) -
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    budgets = sorted(
-        {float(k[1]) for k in by_key if k[0] != "ppo"}, key=lambda b: (math.isinf(b), b)
-    )
-    panels = 3 if len(budgets) > 1 else 2
+    panels = 3 if len({k[1] for k in by_key if k[0] != "ppo"}) > 1 else 2
     fig, axes = plt.subplots(1, panels, figsize=(5 * panels, 4))
     alone, used_ax = axes[0], axes[1]
     styles = {1.0: "-", 0.5: "--"}
@@ -254,23 +251,7 @@ def plot_case(out: Path, case: str, by_key: dict[tuple, list[dict[str, Any]]]) -
     used_ax.set_title("answers used")
     if panels == 3:
         ax = axes[2]
-        finite = [b for b in budgets if math.isfinite(b)]
-        shown = {b: b if math.isfinite(b) else 10 * max(finite or [1e3]) for b in budgets}
-        for rule in RULES:
-            for availability in sorted({k[2] for k in by_key if k[0] == rule}, reverse=True):
-                keys = sorted(
-                    (k for k in by_key if k[0] == rule and k[2] == availability),
-                    key=lambda k: shown[float(k[1])],
-                )
-                xs = [shown[float(k[1])] for k in keys]
-                ys = [np.mean([final_score(r) for r in by_key[k]]) for k in keys]
-                ax.plot(xs, ys, styles.get(availability, ":"), color=colors[rule], marker="o")
-        if ppo:
-            ax.axhline(np.mean([final_score(r) for r in ppo]), color="grey", ls=":")
-        ax.set_xscale("log")
-        ax.set_xticks(list(shown.values()))
-        ax.set_xticklabels([f"{b:g}" if math.isfinite(b) else "no limit" for b in shown])
-        ax.set_xlabel("advice budget (answers)")
+        plot_against_budget(ax, by_key, RULES)
         ax.set_ylabel("student alone at the end")
         ax.set_title("against the budget")
     fig.tight_layout()
@@ -297,9 +278,34 @@ def budget_positions(budgets: list[str]) -> dict[str, float]:
     }
 
 
+def plot_against_budget(ax: Any, by_key: dict[tuple, list[dict[str, Any]]], rules: tuple) -> None:
+    """On ``ax``: the student alone at the end (seed mean) against the budget, per rule of
+    ``rules`` (filled markers: availability 1; hollow, dashed: any other), PPO alone dotted."""
+    where = budget_positions(sorted({k[1] for k in by_key if k[0] != "ppo"}))
+    for rule in rules:
+        for availability in sorted({k[2] for k in by_key if k[0] == rule}, reverse=True):
+            keys = [(rule, b, availability) for b in where if (rule, b, availability) in by_key]
+            full = availability == 1.0
+            ax.plot(
+                [where[k[1]] for k in keys],
+                [seed_mean(by_key[k]) for k in keys],
+                "-" if full else "--",
+                marker="o",
+                color=f"C{RULES.index(rule)}",
+                markerfacecolor=None if full else "none",
+                label=rule + ("" if full else f", availability {availability:g}"),
+            )
+    ppo = by_key.get(("ppo", "", 1.0))
+    if ppo:
+        ax.axhline(seed_mean(ppo), color="grey", ls=":", label="PPO alone")
+    ax.set_xscale("log")
+    ax.set_xticks(list(where.values()))
+    ax.set_xticklabels(["no limit" if b == "inf" else b for b in where])
+    ax.set_xlabel("advice budget (answers)")
+
+
 def plot_overview(path: Path, by_case: dict[str, dict[tuple, list[dict[str, Any]]]]) -> None:
-    """One panel per case: the student alone at the end (seed mean) against the budget, per
-    rule (filled markers: availability 1; hollow, dashed: 0.5), PPO alone dotted."""
+    """One panel per case (:func:`plot_against_budget` with :data:`OVERVIEW_RULES`)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -310,32 +316,7 @@ def plot_overview(path: Path, by_case: dict[str, dict[tuple, list[dict[str, Any]
         return
     fig, axes = plt.subplots(1, len(cases), figsize=(4 * len(cases), 3.6), squeeze=False)
     for ax, case in zip(axes[0], cases, strict=True):
-        by_key = by_case[case]
-        where = budget_positions(sorted({k[1] for k in by_key if k[0] != "ppo"}))
-        for i, rule in enumerate(OVERVIEW_RULES):
-            for availability in (1.0, 0.5):
-                keys = [(rule, b, availability) for b in where if (rule, b, availability) in by_key]
-                if not keys:
-                    continue
-                xs = [where[k[1]] for k in keys]
-                ys = [seed_mean(by_key[k]) for k in keys]
-                full = availability == 1.0
-                ax.plot(
-                    xs,
-                    ys,
-                    "-" if full else "--",
-                    marker="o",
-                    color=f"C{i}",
-                    markerfacecolor=None if full else "none",
-                    label=f"{rule}" + ("" if full else ", availability 0.5"),
-                )
-        ppo = by_key.get(("ppo", "", 1.0))
-        if ppo:
-            ax.axhline(seed_mean(ppo), color="grey", ls=":", label="PPO alone")
-        ax.set_xscale("log")
-        ax.set_xticks(list(where.values()))
-        ax.set_xticklabels(["no limit" if b == "inf" else b for b in where])
-        ax.set_xlabel("advice budget (answers)")
+        plot_against_budget(ax, by_case[case], OVERVIEW_RULES)
         ax.set_title(case, fontsize=9)
     axes[0][0].set_ylabel("student alone at the end (seed mean)")
     axes[0][0].legend(fontsize=6)
