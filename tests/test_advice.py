@@ -19,6 +19,7 @@ from tlac.algorithms.advice import (
     PACING_HORIZON,
     AdviceLedger,
     ask_gate,
+    away_to_agent,
     corrected_rows,
     grant_in_order,
     logit_spread,
@@ -220,6 +221,26 @@ def test_masked_logits_leave_the_agent_and_zero_the_absent():
     assert torch.equal(same, torch.tensor(logits))
 
 
+def test_an_away_teachers_probability_goes_to_the_agent_by_hand():
+    # teachers 0 and 1 at e^0 and e^ln2, the agent at e^0: with teacher 0 away, teacher 1 keeps
+    # its 2/4 and the agent gets its own 1/4 plus teacher 0's 1/4 (masking alone: 2/3, 1/3)
+    logits = np.array([[0.0, math.log(2.0), 0.0], [0.0, math.log(2.0), 0.0]], np.float32)
+    away = np.array([[True, False], [False, False]])
+    out = away_to_agent(logits, away)
+    probs = np.exp(out) / np.exp(out).sum(axis=1, keepdims=True)
+    assert np.allclose(probs, [[0.0, 0.5, 0.5], [0.25, 0.5, 0.25]], atol=1e-6)
+    assert out.dtype == np.float32 and np.array_equal(out[1], logits[1])  # none away: as it was
+    assert away_to_agent(logits, np.zeros((2, 2), bool)) is logits
+    # the torch form gives the same, and a finite gradient
+    t = torch.tensor(logits, requires_grad=True)
+    tout = away_to_agent(t, torch.tensor(away))
+    assert np.allclose(tout.detach().numpy(), out) and torch.equal(tout[1], t[1])
+    # the update learns nothing about a teacher from the rows it was away (as a mask's)
+    torch.log_softmax(tout, -1)[0, 2].backward()
+    assert torch.isfinite(t.grad).all() and t.grad[0, 0] == 0
+    assert t.grad[0, 2] > 0 and t.grad[0, 1] < 0
+
+
 def test_per_teacher_names():
     names = ["optimal", "random_1", "random_2"]
     assert per_teacher({}, names, "availability", 1.0).tolist() == [1.0, 1.0, 1.0]
@@ -298,6 +319,41 @@ def test_a_teacher_half_present_acts_and_labels_only_where_present():
     # both acted on and stored as a label is one answer, asked for its action and its label)
     assert teacher.rows == ledger.acted[0] + ledger.labels[0]
     assert 0 < ledger.answers[0] <= ledger.acted[0] + ledger.labels[0]
+
+
+def test_learned_asking_never_asks_in_place_of_a_teacher_away():
+    """Under ask learned, choosing a teacher is asking it: where it is away, the agent acts
+    with the probability the high level gave that teacher, and no other teacher gets it."""
+    model = _cartpole(
+        [Spy("a"), Spy("b")], availability={"a": 0.5}, ask="learned", teacher_episodes=0
+    )
+    model.learn(320)
+    rows = []  # (obs, away, shift, choice, stored probability): rollouts until a is away
+    for _ in range(40):
+        ro = model.collect()
+        assert (ro.high_away[..., 0] == ~ro.askable[..., 0]).all()
+        assert not ro.high_away[..., 1].any()
+        seen = ro.obs if model.nets.normalizer is None else ro.net_obs  # what the nets read
+        rows.append(
+            (seen, ro.high_away[..., 0], ro.high_shift, ro.choices, np.exp(ro.log_prob_high))
+        )
+        if sum(r[1].sum() for r in rows) >= 64 and sum((~r[1]).sum() for r in rows) >= 64:
+            break
+    obs, away, shift, choices, stored = (
+        np.concatenate([r[i].reshape(-1, *r[i].shape[2:]) for r in rows]) for i in range(5)
+    )
+    high = model.nets.heads(torch.from_numpy(obs))[0].detach().numpy()
+    priced = priced_logits(high, shift)
+    probs = np.exp(priced) / np.exp(priced).sum(axis=1, keepdims=True)
+    # where a is away, the agent's row has its own probability and a's, b's is b's own; where
+    # both are there, each has its own
+    assert away.any() and not (choices[away] == 0).any()
+    agent = away & (choices == 2)
+    assert agent.any() and np.allclose(stored[agent], (probs[:, 0] + probs[:, 2])[agent], atol=1e-5)
+    b = away & (choices == 1)
+    assert np.allclose(stored[b], probs[b, 1], atol=1e-5)
+    here = ~away
+    assert np.allclose(stored[here], probs[here, choices[here]], atol=1e-5)
 
 
 def test_presence_is_drawn_per_episode_with_its_chance():

@@ -15,7 +15,9 @@ where its answer is used, and each answer is paid for:
   episode and environment from this module's own random stream (acting is otherwise
   untouched); a probability may change with the step (a schedule or a function:
   tlac.presets.make_availability), and one of 0 means the teacher has left. An absent
-  teacher can neither be chosen (its high-level logit is masked) nor give a label.
+  teacher can neither be chosen (its high-level logit is masked) nor give a label; under
+  ask learned, choosing it is asking nobody: its probability goes to the agent
+  (:func:`away_to_agent`).
 * **Asking rules** (:data:`ASK_RULES`) decide, state by state, whether the student asks at all
   (:func:`ask_gate`): the baselines of the action-advising literature, Torrey & Taylor 2013
   ("Teaching on a Budget") and Amir et al. 2016 ("Interactive Teaching Strategies for Agent
@@ -376,6 +378,42 @@ def mask_logits(high_logits: np.ndarray, can_answer: np.ndarray) -> np.ndarray:
     return torch.where(keep, high_logits, torch.full_like(high_logits, MASKED_LOGIT))
 
 
+def away_to_agent(high_logits: Any, away: Any) -> Any:
+    """The high level's logits ``(n, K + 1)`` under ask learned, where choosing a teacher is
+    asking it: a choice of a teacher that is away (``away`` ``(n, K)`` True: absent from the
+    episode) gets no answer, and the student acts. The agent's logit (the last column) becomes
+    ``log(e^agent + sum_away e^logit_k)`` and the away teachers' are masked, so each teacher
+    present keeps the probability it has when every teacher is there, and an absent one's goes
+    to the agent, not (renormalised) to the teachers present: with the optimal teacher away,
+    the high level does not ask a random one in its place. In torch the away teachers' logits
+    enter the agent's without gradient: as under a mask, the update learns nothing about a
+    teacher from the rows it was away (a failed episode it was absent from does not lower its
+    choice). Rows with no teacher away are returned as they are. NumPy arrays and torch
+    tensors alike.
+
+    >>> out = away_to_agent(np.zeros((2, 3)), np.array([[True, False], [False, False]]))
+    >>> np.exp(out[0]).round(6).tolist(), out[1].tolist()   # 1 : 2 = the teacher's 1/3, 2/3
+    ([0.0, 1.0, 2.0], [0.0, 0.0, 0.0])
+    """
+    if isinstance(high_logits, np.ndarray):
+        away = np.asarray(away, dtype=bool)
+        if not away.any():
+            return high_logits
+        teachers = np.where(away, high_logits[:, :-1], -np.inf)
+        merged = np.logaddexp(high_logits[:, -1], np.logaddexp.reduce(teachers, axis=1))
+        out = np.where(away, MASKED_LOGIT, high_logits[:, :-1])
+        agent = np.where(away.any(axis=1), merged, high_logits[:, -1])
+        return np.concatenate([out, agent[:, None]], axis=1).astype(high_logits.dtype)
+    import torch
+
+    away_logits = high_logits[:, :-1].detach()  # no gradient to a teacher from rows it was away
+    teachers = torch.where(away, away_logits, torch.full_like(away_logits, -math.inf))
+    merged = torch.logsumexp(torch.cat([high_logits[:, -1:], teachers], dim=1), dim=1)
+    agent = torch.where(away.any(dim=1), merged, high_logits[:, -1])
+    masked = torch.where(away, torch.full_like(teachers, MASKED_LOGIT), high_logits[:, :-1])
+    return torch.cat([masked, agent[:, None]], dim=1)
+
+
 class OutsidePresence:
     """Which teachers the world outside the run says are there now (:meth:`AdviceLedger.
     outside_presence`): a person whose browser tab is closed, or who let a question time out
@@ -561,6 +599,14 @@ class AdviceLedger:
         if self.outside is not None:
             can = can & self.outside.mask
         return can
+
+    def away(self) -> np.ndarray:
+        """``(E, K)``: the teachers absent now in each environment (not drawn present in the
+        episode, or absent by the outside world's say), affordable or not."""
+        away = ~self.present
+        if self.outside is not None:
+            away = away | ~self.outside.mask
+        return away
 
     def can_answer(self, gate: np.ndarray) -> np.ndarray:
         """``(E, K)``: the teachers the high level may choose in each environment: present,

@@ -36,6 +36,7 @@ class Rollout:
     askable: np.ndarray | None = None  # the teachers present where the student asked
     high_mask: np.ndarray | None = None  # the teachers the high level could choose from
     high_shift: np.ndarray | None = None  # ask learned, (T, E, K): the price in the logits
+    high_away: np.ndarray | None = None  # ask learned: the teachers away (advice.away_to_agent)
     corrected: np.ndarray | None = None  # ask mistake, (T, E) bool: the teacher disagreed
 
     @classmethod

@@ -18,6 +18,7 @@ from tlac.algorithms.advice import (
     AdviceLedger,
     acting_teachers,
     ask_gate,
+    away_to_agent,
     corrected_rows,
     mask_logits,
     priced_logits,
@@ -73,6 +74,7 @@ def collect(model: Any, callbacks: LearnCallbacks | None = None) -> Rollout | No
         ro.high_mask = np.zeros((T, E, model.n_teachers), dtype=bool)
         if rule == "learned":  # the price of each answer, charged in the high level's logits
             ro.high_shift = np.zeros((T, E, model.n_teachers), dtype=np.float32)
+            ro.high_away = np.zeros((T, E, model.n_teachers), dtype=bool)
             steps_left = advice_steps_left(model)
             limits.start_pacing(steps_left)
             pacing = (limits.spent, limits.remaining, steps_left)
@@ -114,6 +116,9 @@ def collect(model: Any, callbacks: LearnCallbacks | None = None) -> Rollout | No
             if ro.high_shift is not None:  # the behaviour policy pays the price of asking
                 ro.high_shift[t] = limits.shift()
                 high_logits = priced_logits(high_logits, ro.high_shift[t])
+                # asking a teacher that is away gets no answer: the student acts
+                ro.high_away[t] = limits.away()
+                high_logits = away_to_agent(high_logits, ro.high_away[t])
             # UCB1 picks once per episode: the teachers that can answer now, whatever the
             # ask gate says in this first state (where it is shut, the agent acts that row)
             pickable = can if model.selector.trains_high_level else limits.can_lead()

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 import torch
 from stable_baselines3.common.vec_env import unwrap_vec_normalize
 
-from tlac.algorithms.advice import mask_logits, priced_logits
+from tlac.algorithms.advice import away_to_agent, mask_logits, priced_logits
 from tlac.two_level import fast, losses
 from tlac.two_level.graduation import entropy_coefs
 from tlac.two_level.labels import advice_on, charge_labels, store_labels, store_paid_labels
@@ -267,6 +267,10 @@ def minibatch_loss(
     acting_logits = None
     if "high_shift" in data:
         acting_logits = priced_logits(high_logits, data["high_shift"][idx])
+        away = data["high_away"][idx]
+        if bool(away.any()):  # a teacher away: choosing it was the agent acting
+            high_logits = away_to_agent(high_logits, away)
+            acting_logits = away_to_agent(acting_logits, away)
     if "high_mask" in data:  # limited advice: the choices the high level had in each row
         high_logits = mask_logits(high_logits, data["high_mask"][idx])
         if acting_logits is not None:
