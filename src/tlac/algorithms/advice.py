@@ -594,11 +594,8 @@ class AdviceLedger:
     def can_lead(self) -> np.ndarray:
         """``(E, K)``: the teachers that can answer in each environment now, whatever the
         asking rule says (present, affordable, and not absent by the outside world's say:
-        :meth:`outside_presence`)."""
-        can = self.present & self.affordable()
-        if self.outside is not None:
-            can = can & self.outside.mask
-        return can
+        :meth:`outside_presence`): not :meth:`away`, and affordable."""
+        return ~self.away() & self.affordable()
 
     def away(self) -> np.ndarray:
         """``(E, K)``: the teachers absent now in each environment (not drawn present in the
