@@ -140,15 +140,20 @@ def make_teachers(case: str, seed: int, env: Any) -> list[Any]:
     return [as_teacher(t, space) for t in user_envs.SUITE[case](seed, space)]
 
 
-def evaluate(act_batch: Callable[[np.ndarray], Any], case: str, episodes: int) -> np.ndarray:
+def evaluate(
+    act_batch: Callable[[np.ndarray], Any],
+    case: str,
+    episodes: int,
+    seed: int = user_envs.EVAL_SEED,
+) -> np.ndarray:
     """The returns of ``act_batch`` over the case's fixed evaluation episodes (seeded
-    user_envs.EVAL_SEED, ...)."""
+    ``seed``, ``seed + 1``, ...: user_envs.EVAL_SEED unless given)."""
     if not is_doorkey(case):
-        return user_envs.evaluate(act_batch, case, episodes)
+        return user_envs.evaluate(act_batch, case, episodes, seed)
     from tlac.domains import get_domain
     from tlac.evaluation import evaluate_policy
 
-    return evaluate_policy(act_batch, get_domain("doorkey"), episodes, user_envs.EVAL_SEED)
+    return evaluate_policy(act_batch, get_domain("doorkey"), episodes, seed)
 
 
 def reference_returns(case: str, episodes: int) -> dict[str, Any]:

@@ -332,12 +332,15 @@ def run_name(entry: str, learner: str, seed: int) -> str:
     return f"{gym_id(entry) if learner == 'ppo' else entry}__{learner}__seed{seed}"
 
 
-def evaluate(act_batch: Callable[[np.ndarray], Any], env_id: str, episodes: int) -> np.ndarray:
-    """Returns of ``act_batch`` over ``episodes`` fresh episodes seeded EVAL_SEED, ..."""
+def evaluate(
+    act_batch: Callable[[np.ndarray], Any], env_id: str, episodes: int, seed: int = EVAL_SEED
+) -> np.ndarray:
+    """Returns of ``act_batch`` over ``episodes`` fresh episodes seeded ``seed``, ``seed + 1``,
+    ... (EVAL_SEED unless given)."""
     from tlac.evaluation import evaluate_policy
 
     maker = SimpleNamespace(make_env=lambda: gym.make(gym_id(env_id)))
-    return evaluate_policy(act_batch, maker, episodes, EVAL_SEED)
+    return evaluate_policy(act_batch, maker, episodes, seed)
 
 
 def one_by_one(fn: Callable[[np.ndarray], Any]) -> Callable[[np.ndarray], list]:

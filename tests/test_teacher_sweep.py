@@ -169,3 +169,44 @@ def test_teachers_and_students_phases_say_why_they_skip_an_environment(
     assert "Pendulum-v1: no teachers yet: PPO alone has not run every seed [0, 1, 2, 3, 4]" in out
     assert "Pendulum-v1: no students yet: its teachers are not chosen" in out
     assert not (tmp_path / "teachers" / "Pendulum-v1.json").exists()
+
+
+class _TwoFacedModel:
+    """A policy whose greedy and sampled actions are told apart by the action's value (0 or 1);
+    sampling draws from torch's generator, as a real policy's does."""
+
+    def predict(self, batch, deterministic=False):
+        torch.rand(1)  # a draw, as a sampled policy makes
+        return np.full(len(batch), 0 if deterministic else 1), None
+
+
+def _fake_scores(by_seed):
+    """peers.evaluate's stand-in: the score of (mode, seed) from ``by_seed``."""
+
+    def evaluate(act, env_id, episodes, seed):
+        mode = "greedy" if act(np.zeros((1, 2)))[0] == 0 else "sampled"
+        return np.full(episodes, by_seed[mode, seed])
+
+    return evaluate
+
+
+def test_the_deployed_student_is_chosen_on_other_episodes_and_scored_on_the_final_ones(
+    monkeypatch,
+):
+    final, select = sweep.user_envs.EVAL_SEED, sweep.SELECT_SEED
+    scores = {("greedy", final): 0.875, ("sampled", final): 0.5}  # (exact in binary)
+    scores |= {("greedy", select): 0.25, ("sampled", select): 0.75}
+    monkeypatch.setattr(sweep.peers, "evaluate", _fake_scores(scores))
+    torch.manual_seed(0)
+    deployed = sweep.deployed_alone(_TwoFacedModel(), sweep.DOORKEY)
+    after = torch.rand(1)
+    # sampled wins the selection, and its score is the final episodes' (not the greedy 0.875)
+    assert deployed["deployed"] == "sampled" and deployed["student_alone"] == 0.5
+    assert deployed["selection"] == {"greedy": 0.25, "sampled": 0.75}
+    torch.manual_seed(0)  # the training's generator is left where it was
+    assert torch.equal(after, torch.rand(1))
+    # a tie deploys the greedy student
+    scores[("greedy", select)] = 0.75
+    assert sweep.deployed_alone(_TwoFacedModel(), sweep.DOORKEY)["deployed"] == "greedy"
+    # elsewhere only the greedy student, scored as before
+    assert sweep.deployed_alone(_TwoFacedModel(), "CartPole-v1") == {"student_alone": 0.875}
