@@ -10,6 +10,9 @@ tlac's default preset, benchmarks/user_envs.py) and per TL-AC run of an asking r
 ``--eval-every`` steps the student ALONE is scored greedily on the user suite's fresh
 evaluation episodes (benchmarks/peers.py's :class:`peers.Curve`), with the answers asked so far.
 PPO alone (``ppo``: SB3's defaults; DoorKey's ``ppo`` preset) is run once per case and seed.
+With ``--deploy choose`` each learner is also deployed at the end greedy or sampled, whichever
+scores higher on other episodes, and that score on the fresh ones is its student alone at the
+end (on DoorKey a greedy student walks in loops a sampled one leaves: docs/advice.md).
 
 Every TL-AC run here sets ``teacher_episodes 0`` (no teacher-led episodes, so no audition): a
 led episode asks its teacher in every state whatever the rule (CartPole's scripted teacher
@@ -88,6 +91,17 @@ def teacher_specs(case: str, seed: int, env: Any, availability: float) -> list[A
     return [TeacherSpec(p, availability=availability) for p in policies]
 
 
+def deployment(model: Any, case: str, args: argparse.Namespace) -> dict[str, Any]:
+    """With ``--deploy choose``, how the trained learner is deployed (``deployed``: greedy or
+    sampled, chosen on other episodes; :func:`peers.deployed_alone`) and its score then on
+    fresh episodes (``student_alone``); nothing with ``--deploy greedy`` (the curve's last
+    point is the greedy student's score)."""
+    if args.deploy == "greedy":
+        return {}
+    modes = {"greedy": peers.greedy(model), "sampled": peers.sampled(model)}
+    return peers.deployed_alone(modes, case, args.episodes)
+
+
 def train_tlac(
     case: str, rule: str, budget: str, availability: float, seed: int, args: argparse.Namespace
 ) -> dict[str, Any]:
@@ -111,6 +125,7 @@ def train_tlac(
 
     model.learn(args.steps, callback=after_update)
     return {
+        **deployment(model, case, args),
         "case": case,
         "learner": rule,
         "budget": budget,
@@ -126,8 +141,9 @@ def train_tlac(
 
 def train_ppo(case: str, seed: int, args: argparse.Namespace) -> dict[str, Any]:
     curve = peers.Curve(case, args.eval_every, args.episodes)
-    peers.train_ppo(case, seed, args.steps, curve, None)
+    model = peers.train_ppo(case, seed, args.steps, curve, None)
     return {
+        **deployment(model, case, args),
         "case": case,
         "learner": "ppo",
         "seed": seed,
@@ -142,8 +158,9 @@ def load_runs(out: Path) -> list[dict[str, Any]]:
 
 
 def final_score(run: dict[str, Any]) -> float:
-    """The student alone at the run's last evaluation."""
-    return float(run["curve"][-1][1])
+    """The student alone at the end: as deployed where the run chose (``--deploy choose``), else
+    greedy at the run's last evaluation."""
+    return float(run["student_alone"] if "deployed" in run else run["curve"][-1][1])
 
 
 def final_training_return(run: dict[str, Any]) -> float | None:
@@ -190,7 +207,7 @@ def case_table(case: str, by_key: dict[tuple, list[dict[str, Any]]]) -> list[str
         learner, budget, availability = key
         rs = by_key[key]
         steps = rs[0]["curve"][-1][0]
-        score = _mean_std([final_score(r) for r in rs], decimals)
+        score = _mean_std([final_score(r) for r in rs], decimals) + peers.deployed_note(rs)
         returns = [v for v in map(final_training_return, rs) if v is not None]
         training = _mean_std(returns, decimals) if returns else "-"
         if learner == "ppo":
@@ -471,6 +488,13 @@ def main() -> None:
         default=[],
         metavar="KEY=VALUE",
         help="a TL-AC setting for every TL-AC run, on top of the benchmark's (repeatable)",
+    )
+    parser.add_argument(
+        "--deploy",
+        choices=("greedy", "choose"),
+        default="greedy",
+        help="the student alone at the end: greedy (the curve's last point), or greedy or "
+        "sampled, whichever scores higher on other episodes, scored on fresh ones (choose)",
     )
     parser.add_argument("--out", type=Path, default=Path("results/advice-budget"))
     parser.add_argument(

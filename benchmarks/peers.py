@@ -246,6 +246,61 @@ def greedy(policy: Any, view: Encode | None = None) -> Callable[[np.ndarray], An
     return lambda batch: policy.predict(view(batch), deterministic=True)[0]
 
 
+def sampled(policy: Any) -> Callable[[np.ndarray], Any]:
+    """The actions an SB3 or tlac policy samples (``predict``'s default), for a batch."""
+    return lambda batch: policy.predict(batch, deterministic=False)[0]
+
+
+SELECT_SEED = 20_000
+"""Seeds of the episodes that choose how a student is deployed (:func:`deployed_alone`), never
+the final ones (user_envs.EVAL_SEED, ...): the best of two scores overstates the one chosen."""
+
+
+def mode_scores(
+    modes: dict[str, Callable[[np.ndarray], Any]], case: str, episodes: int, seed: int
+) -> dict[str, float]:
+    """Each way of acting's mean return over ``episodes`` episodes seeded ``seed``, ...; what
+    it samples is drawn with ``seed`` on a generator apart from the training's."""
+    import torch
+
+    scores = {}
+    for mode, act in modes.items():
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(seed)
+            scores[mode] = float(evaluate(act, case, episodes, seed).mean())
+    return scores
+
+
+def deployed_alone(
+    modes: dict[str, Callable[[np.ndarray], Any]], case: str, episodes: int
+) -> dict[str, Any]:
+    """The student alone as deployed: with one way of acting, its score on the final episodes;
+    with several (greedy first, then sampled), the one that scores highest on the selection
+    episodes (the first of equal scores), scored again on the final ones, beside every way's
+    scores on both."""
+    final = mode_scores(modes, case, episodes, user_envs.EVAL_SEED)
+    if len(final) == 1:
+        return {"student_alone": next(iter(final.values()))}
+    selection = mode_scores(modes, case, episodes, SELECT_SEED)
+    mode = max(selection, key=selection.__getitem__)
+    return {
+        "student_alone": final[mode],
+        "deployed": mode,
+        "selection": selection,
+        "alone_by_mode": final,
+    }
+
+
+def deployed_note(runs: list[dict]) -> str:
+    """How many of the runs deployed the sampled student (where they could choose).
+
+    >>> deployed_note([{"deployed": "sampled"}, {"deployed": "greedy"}]), deployed_note([{}])
+    (' (sampled in 1 of 2)', '')
+    """
+    chose = [r["deployed"] for r in runs if "deployed" in r]
+    return f" (sampled in {chose.count('sampled')} of {len(chose)})" if chose else ""
+
+
 def best_teacher_name(reference: dict[str, Any]) -> str:
     """The teacher with the best measured return (:func:`reference_returns`): the
     oracle choice of the single-teacher peers."""
@@ -301,9 +356,11 @@ def train_tlac(
     model.learn(steps, callback=after_update)
 
 
-def train_ppo(case: str, seed: int, steps: int, curve: Curve, view: Encode | None) -> None:
+def train_ppo(case: str, seed: int, steps: int, curve: Curve, view: Encode | None) -> Any:
+    """SB3 PPO alone on the case, its curve recorded; returns the trained model."""
     model = make_ppo(case, peer_env(make_env(case), view), seed)
     model.learn(steps, callback=sb3_milestone_callback(curve, view=view))
+    return model
 
 
 def demonstrations(

@@ -207,48 +207,15 @@ in SB3): on MiniGrid's partial view a greedy policy walks in loops where a sampl
 (q 0.25 + random, seed 1, 5e5 steps: greedy 0.453, sampled 0.896 on the same 30 episodes;
 NOTES.md, "DoorKey: the sampled student"). Elsewhere the sweep deploys the greedy student only,
 as its committed runs were scored."""
-SELECT_SEED = 20_000
-"""Seeds of the episodes that choose between the greedy and the sampled student (never the final
-episodes, seeded user_envs.EVAL_SEED: the best of two scores overstates the one chosen)."""
-
-
-def sampled_act(model: Any) -> Any:
-    """A batch of observations -> the actions an SB3 or tlac policy samples."""
-    return lambda batch: model.predict(batch, deterministic=False)[0]
-
-
-def mode_scores(model: Any, env_id: str, seed: int) -> dict[str, float]:
-    """The student alone's mean over user_envs.EVAL_EPISODES episodes seeded ``seed``, ...:
-    greedy, and sampled where :data:`SAMPLED_TOO` (its draws seeded by ``seed``, on a generator
-    apart from the training's)."""
-    import torch
-
-    modes = {"greedy": greedy_act(model)}
-    if env_id in SAMPLED_TOO:
-        modes["sampled"] = sampled_act(model)
-    scores = {}
-    for mode, act in modes.items():
-        with torch.random.fork_rng(devices=[]):
-            torch.manual_seed(seed)
-            returns = peers.evaluate(act, env_id, user_envs.EVAL_EPISODES, seed)
-        scores[mode] = float(returns.mean())
-    return scores
 
 
 def deployed_alone(model: Any, env_id: str) -> dict[str, Any]:
-    """The student alone as deployed: greedy, or where :data:`SAMPLED_TOO` the mode that scores
-    higher on the selection episodes (greedy on a tie), scored again on the final episodes."""
-    final = mode_scores(model, env_id, user_envs.EVAL_SEED)
-    if len(final) == 1:
-        return {"student_alone": final["greedy"]}
-    selection = mode_scores(model, env_id, SELECT_SEED)
-    mode = max(selection, key=selection.__getitem__)  # the first of equal scores: greedy
-    return {
-        "student_alone": final[mode],
-        "deployed": mode,
-        "selection": selection,
-        "alone_by_mode": final,
-    }
+    """The student alone as deployed (:func:`peers.deployed_alone`): greedy, or where
+    :data:`SAMPLED_TOO` the better of greedy and sampled on the selection episodes."""
+    modes = {"greedy": greedy_act(model)}
+    if env_id in SAMPLED_TOO:
+        modes["sampled"] = peers.sampled(model)
+    return peers.deployed_alone(modes, env_id, user_envs.EVAL_EPISODES)
 
 
 def score(act_batch: Any, env_id: str, episodes: int) -> float:
@@ -578,16 +545,6 @@ def decimals(env_id: str) -> int:
     return 3 if env_id == DOORKEY else 1
 
 
-def deployed_note(runs: list[dict]) -> str:
-    """How many of the runs deployed the sampled student (where they could choose).
-
-    >>> deployed_note([{"deployed": "sampled"}, {"deployed": "greedy"}]), deployed_note([{}])
-    (' (sampled in 1 of 2)', '')
-    """
-    chose = [r["deployed"] for r in runs if "deployed" in r]
-    return f" (sampled in {chose.count('sampled')} of {len(chose)})" if chose else ""
-
-
 def env_rows(out: Path, env_id: str, seeds: list[int]) -> tuple[list[str], list[dict]]:
     """The report's rows of one environment and the points of its figure."""
     teachers = json.loads((out / "teachers" / f"{env_id}.json").read_text())
@@ -626,7 +583,7 @@ def env_rows(out: Path, env_id: str, seeds: list[int]) -> tuple[list[str], list[
         d = decimals(env_id)
         rows.append(
             f"| {env_id} | {case} | {teacher['q']:.2f} | {teacher['alone']:.{d}f} "
-            f"| {len(runs)} | {peers._mean_std(student, d)}{deployed_note(runs)} "
+            f"| {len(runs)} | {peers._mean_std(student, d)}{peers.deployed_note(runs)} "
             f"| {peers._mean_std([r['training_return'] for r in runs], d)} "
             f"| {ppo:.{d}f} | {floor:.{d}f} | {'yes' if mean >= floor else 'NO'} "
             f"| {cell} | {('yes' if time_ok else 'NO') if timed else ''} |"

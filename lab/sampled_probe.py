@@ -37,7 +37,7 @@ def main() -> None:
     torch.manual_seed(args.seed)
     env = sweep.DOORKEY
     model = sweep.make_learner(env, args.case, args.seed, ROOT / "results/teacher-sweep")
-    greedy, sampled = sweep.greedy_act(model), sweep.sampled_act(model)
+    greedy, sampled = sweep.greedy_act(model), peers.sampled(model)
     points: list[tuple[int, float, float]] = []
 
     def after_update(m) -> bool:

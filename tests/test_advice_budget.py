@@ -115,3 +115,23 @@ def test_verdicts_compare_the_learned_asking_with_the_others(tmp_path):
 
 def test_the_doctests_hold():
     assert doctest.testmod(bench).failed == 0
+
+
+def test_deploy_choose_records_the_student_as_deployed(tmp_path, monkeypatch):
+    """With ``--deploy choose`` every learner (PPO alone too) records both ways of acting on
+    the selection and the final episodes, and the report scores the one deployed there."""
+    argv = [
+        "advice_budget.py",
+        *("--envs", "CartPole-v1", "--rules", "learned", "ppo", "--budgets", "20"),
+        *("--seeds", "0", "--steps", "2048", "--availability", "1", "--deploy", "choose"),
+        *("--eval-every", "2048", "--episodes", "2", "--out", str(tmp_path)),
+    ]
+    monkeypatch.setattr(sys, "argv", argv)
+    bench.main()
+    for name in ("CartPole-v1__learned__b20__a1__seed0", "CartPole-v1__ppo__seed0"):
+        run = json.loads((tmp_path / "runs" / f"{name}.json").read_text())
+        chosen = max(run["selection"], key=run["selection"].get)
+        assert set(run["alone_by_mode"]) == {"greedy", "sampled"} and run["deployed"] == chosen
+        assert run["student_alone"] == run["alone_by_mode"][chosen]
+        assert bench.final_score(run) == run["student_alone"]
+    assert "(sampled in " in (tmp_path / "report.md").read_text()

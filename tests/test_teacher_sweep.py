@@ -193,7 +193,7 @@ def _fake_scores(by_seed):
 def test_the_deployed_student_is_chosen_on_other_episodes_and_scored_on_the_final_ones(
     monkeypatch,
 ):
-    final, select = sweep.user_envs.EVAL_SEED, sweep.SELECT_SEED
+    final, select = sweep.user_envs.EVAL_SEED, sweep.peers.SELECT_SEED
     scores = {("greedy", final): 0.875, ("sampled", final): 0.5}  # (exact in binary)
     scores |= {("greedy", select): 0.25, ("sampled", select): 0.75}
     monkeypatch.setattr(sweep.peers, "evaluate", _fake_scores(scores))
