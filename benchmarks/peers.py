@@ -259,8 +259,11 @@ the final ones (user_envs.EVAL_SEED, ...): the best of two scores overstates the
 def mode_scores(
     modes: dict[str, Callable[[np.ndarray], Any]], case: str, episodes: int, seed: int
 ) -> dict[str, float]:
-    """Each way of acting's mean return over ``episodes`` episodes seeded ``seed``, ...; what
-    it samples is drawn with ``seed`` on a generator apart from the training's."""
+    """Each way of acting's mean return over ``episodes`` episodes seeded ``seed``, ....
+    What an SB3 policy samples comes from torch's generator, forked here and seeded with
+    ``seed``; a tlac model samples from its own acting generator (NumPy), whose state after
+    training the run's seed fixes. Either way the scores are reproducible, and, made after
+    training, they change nothing of it."""
     import torch
 
     scores = {}

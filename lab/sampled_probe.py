@@ -5,8 +5,9 @@ sweep's final ones, and 100 sampled).
     .venv/bin/python lab/sampled_probe.py "q0.25+random" 1
 
 Prints each point and writes sampled_CASE_SEED.json into ``--out``. The sampled evaluations
-during training draw from the training's torch generator, so the run is not the sweep's own
-run of that seed (the sweep scores the sampled student once, at the end, on a generator apart).
+during training draw from the model's acting generator, which the training draws from too, so
+the run is not the sweep's own run of that seed (the sweep scores the sampled student once,
+after training).
 """
 
 from __future__ import annotations

@@ -173,7 +173,7 @@ def test_teachers_and_students_phases_say_why_they_skip_an_environment(
 
 class _TwoFacedModel:
     """A policy whose greedy and sampled actions are told apart by the action's value (0 or 1);
-    sampling draws from torch's generator, as a real policy's does."""
+    sampling draws from torch's generator, as an SB3 policy's does."""
 
     def predict(self, batch, deterministic=False):
         torch.rand(1)  # a draw, as a sampled policy makes
@@ -210,3 +210,19 @@ def test_the_deployed_student_is_chosen_on_other_episodes_and_scored_on_the_fina
     assert sweep.deployed_alone(_TwoFacedModel(), sweep.DOORKEY)["deployed"] == "greedy"
     # elsewhere only the greedy student, scored as before
     assert sweep.deployed_alone(_TwoFacedModel(), "CartPole-v1") == {"student_alone": 0.875}
+
+
+def test_a_tlac_students_deployment_is_reproducible():
+    """A TL-AC model samples from its own acting generator (NumPy), not torch's: two runs of
+    one seed give the same choice and scores, whatever torch's generator holds."""
+    from tlac import TLAC
+
+    results = []
+    for torch_seed in (1, 2):
+        model = TLAC("CartPole-v1", teachers=[], seed=0, n_steps=64)
+        model.learn(128)
+        torch.manual_seed(torch_seed)  # differs between the two: it must not matter
+        modes = {"greedy": sweep.greedy_act(model), "sampled": sweep.peers.sampled(model)}
+        results.append(sweep.peers.deployed_alone(modes, "CartPole-v1", 2))
+    assert results[0] == results[1]
+    assert set(results[0]["alone_by_mode"]) == {"greedy", "sampled"}
