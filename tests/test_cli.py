@@ -205,7 +205,7 @@ def test_eval_imports_a_runs_domain_file_when_told_to(tmp_path, capsys):
     assert "domain file" in err and "pass --trust-code" in err and len(err.splitlines()) == 1
     assert main(["eval", str(out), "--episodes", "2", "--trust-code", "--with-teachers"]) == 0
     printed = capsys.readouterr().out
-    assert "student alone (2 episodes)" in printed and "with its teachers" in printed
+    assert "student alone (greedy, 2 episodes)" in printed and "with its teachers" in printed
 
 
 def test_report_of_one_run_folder(tmp_path, capsys):

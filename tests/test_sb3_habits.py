@@ -464,6 +464,26 @@ def test_student_eval_callback_logs_the_student_alone(tmp_path) -> None:
         StudentEvalCallback("CartPole-v1", eval_freq=0)
 
 
+def test_a_sampled_student_eval_callback_leaves_training_unchanged() -> None:
+    """Sampled evaluations draw apart from the model's acting generator (seeded with the
+    episodes' first seed): the same weights as training without the callback, and the same
+    scores from a second run."""
+    from tlac import StudentEvalCallback
+
+    runs = []
+    for _ in range(2):
+        watched = model()
+        evals = StudentEvalCallback(
+            gym.make("CartPole-v1"), eval_freq=128, n_eval_episodes=2, deterministic=False
+        )
+        watched.learn(384, callback=evals)
+        runs.append((watched, evals.evaluations))
+    alone = model()
+    alone.learn(384)
+    assert same_weights(alone, runs[0][0])
+    assert runs[0][1] == runs[1][1] and len(runs[0][1]) == 3
+
+
 def test_student_eval_callback_takes_a_vec_env_as_evaluate_policy_does() -> None:
     from stable_baselines3.common.evaluation import evaluate_policy
     from stable_baselines3.common.vec_env import VecMonitor

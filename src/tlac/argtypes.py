@@ -6,6 +6,11 @@ from __future__ import annotations
 import argparse
 import math
 
+DEPLOY_MODES = ("greedy", "sampled", "choose")
+"""How a run deploys its student (``tlac train --deploy``, ``tlac.run.RunSpec.deploy``):
+greedy (``predict(deterministic=True)``), sampled (``predict``'s default, as SB3's), or
+whichever of the two scores higher."""
+
 
 def positive_int(text: str) -> int:
     """An integer >= 1; ``1e5`` style is accepted for step counts."""

@@ -4,7 +4,8 @@ on its own (:func:`measure_teacher`: the mean return the paper quotes beside eac
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import gymnasium as gym
@@ -65,13 +66,38 @@ def episode_returns(act: Any, envs: list[gym.Env], episodes: int, seed: int) -> 
     return np.asarray(returns[:episodes], dtype=np.float64)
 
 
+@contextmanager
+def sampling_apart(model: Any, seed: int) -> Iterator[None]:
+    """Within the block, ``model.predict(..., deterministic=False)`` samples from generators
+    seeded ``seed``, and the model's own are as before afterwards: a sampled evaluation is
+    reproducible and leaves training untouched. A tlac model samples from its NumPy acting
+    generator (``model.rng``), an SB3 model from torch's."""
+    import torch
+
+    rng = getattr(model, "rng", None)
+    saved = rng.bit_generator.state if isinstance(rng, np.random.Generator) else None
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(seed)
+        if saved is not None:
+            rng.bit_generator.state = np.random.default_rng(seed).bit_generator.state
+        try:
+            yield
+        finally:
+            if saved is not None:
+                rng.bit_generator.state = saved
+
+
 def evaluate_student(
     model: Any, domain: Domain, episodes: int, seed: int, deterministic: bool = True
 ) -> np.ndarray:
-    """Returns of ``model.predict`` alone (no teacher) over ``episodes`` episodes."""
-    return evaluate_policy(
-        lambda o: model.predict(o, deterministic=deterministic)[0], domain, episodes, seed
-    )
+    """Returns of ``model.predict`` alone (no teacher) over ``episodes`` episodes seeded
+    ``seed, seed + 1, ...``; sampled actions (``deterministic=False``) are drawn apart from the
+    model's generators (:func:`sampling_apart`), seeded ``seed``."""
+    act = lambda o: model.predict(o, deterministic=deterministic)[0]  # noqa: E731
+    if deterministic:
+        return evaluate_policy(act, domain, episodes, seed)
+    with sampling_apart(model, seed):
+        return evaluate_policy(act, domain, episodes, seed)
 
 
 class StudentEvalCallback(BaseCallback):
@@ -87,7 +113,8 @@ class StudentEvalCallback(BaseCallback):
     model's ``VecNormalize`` when it trains under one. A ``VecEnv`` is evaluated as SB3's
     ``evaluate_policy`` does (:func:`vec_episode_returns`); a ``VecNormalize`` in it gets the
     training one's statistics first, as ``EvalCallback`` syncs them. Training is unchanged:
-    the evaluation draws nothing from the model's generators and steps its own environment.
+    the evaluation steps its own environment, and sampled actions come from generators seeded
+    with the episodes' first seed (:func:`sampling_apart`), the model's own restored after.
     ``evaluations``: every ``(timestep, mean, std)``.
 
     >>> from tlac import TLAC
@@ -162,9 +189,10 @@ class StudentEvalCallback(BaseCallback):
             return self.model.predict(obs, deterministic=self.deterministic)[0]
 
         seed = 10_000 + int(self.model.seed) if self.seed is None else self.seed
-        if isinstance(self.eval_env, VecEnv):
-            return vec_episode_returns(act, self.eval_env, self.n_eval_episodes, seed)
-        return episode_returns(act, [self.eval_env], self.n_eval_episodes, seed)
+        with sampling_apart(self.model, seed):  # greedy draws nothing; sampled draws apart
+            if isinstance(self.eval_env, VecEnv):
+                return vec_episode_returns(act, self.eval_env, self.n_eval_episodes, seed)
+            return episode_returns(act, [self.eval_env], self.n_eval_episodes, seed)
 
 
 def vec_episode_returns(act: Any, venv: VecEnv, episodes: int, seed: int) -> np.ndarray:

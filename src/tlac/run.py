@@ -17,7 +17,7 @@ import json
 import os
 import shutil
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -30,6 +30,7 @@ from filelock import FileLock, Timeout
 
 from tlac.algorithms import NO_ADVICE, get_algorithm
 from tlac.algorithms.common import check_seed, safe_torch_load
+from tlac.argtypes import DEPLOY_MODES
 from tlac.domains import (
     Domain,
     ParsedTeacher,
@@ -109,6 +110,13 @@ class RunSpec:
     (the last weights stay in ``model-last``), and ``final_eval_mean`` is its return on
     ``eval_episodes`` fresh episodes (other seeds than the evaluations that chose it: the best
     of several noisy evaluations overstates the student). Training itself is unchanged."""
+    deploy: str = "greedy"
+    """How the student is deployed and scored: ``greedy`` (``predict(deterministic=True)``),
+    ``sampled`` (``predict``'s default, as SB3's) or ``choose``: every evaluation scores both
+    and counts the higher (the greedy one on a tie), and the run's mode is the one its last
+    evaluation (with ``keep_best``: its best) chose, scored again on fresh episodes.
+    ``result.json``'s ``deploy_mode`` names it, and ``tlac eval`` acts in it. Sampled actions
+    are drawn apart from the model's generators: training is unchanged."""
     tensorboard: bool = False
 
     def resolved_preset(self) -> str:
@@ -151,6 +159,8 @@ class RunSpec:
             raise ConfigError(f"overrides must be a mapping of settings, got {self.overrides!r}")
         if not isinstance(self.keep_best, bool):
             raise ConfigError(f"keep_best must be true or false, got {self.keep_best!r}")
+        if self.deploy not in DEPLOY_MODES:
+            raise UnknownNameError("deploy", self.deploy, list(DEPLOY_MODES))
         if self.keep_best and (self.eval_every is None or self.eval_episodes == 0):
             raise ConfigError(
                 "keep_best chooses among periodic evaluations: give eval_every (--eval-every) "
@@ -667,21 +677,21 @@ def _train_locked(
         eval_rows = [tuple(r) for r in meta["eval_rows"]]  # type: ignore[misc]
     else:
         model = _new_model(run, algo_cls, venv, teachers, recorder)
-        eval_file.write_text("timestep,mean_return,std_return,episodes\n")
+        eval_file.write_text(",".join(eval_columns(spec.deploy)) + "\n")
         settings = getattr(model, "config", None)
         if dataclasses.is_dataclass(settings):  # every setting as resolved, defaults included
             config["settings"] = dataclasses.asdict(settings)
             (out / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
 
-    # keep_best: [mean, timestep] of the best evaluation so far; its model is in BEST_MODEL
+    # keep_best: [mean, timestep, mode] of the best evaluation so far; its model is BEST_MODEL
     best: list[Any] | None = meta.get("best_eval")
 
     def evaluate(timestep: int) -> None:
         nonlocal best
         if spec.eval_episodes <= 0:
             return
-        returns = evaluate_student(model, domain, spec.eval_episodes, seed=10_000 + spec.seed)
-        row = (timestep, float(returns.mean()), float(returns.std()), len(returns))
+        scores = scores_by_mode(model, domain, spec.deploy, spec.eval_episodes, 10_000 + spec.seed)
+        row = eval_row(timestep, scores)
         eval_rows.append(row)
         with eval_file.open("a") as f:
             f.write(",".join(str(v) for v in row) + "\n")
@@ -690,7 +700,7 @@ def _train_locked(
         )
         if spec.keep_best and (best is None or row[1] >= best[0]):  # ties: the later one
             model.save(out / BEST_MODEL)
-            best = [row[1], timestep]
+            best = [row[1], timestep, row_mode(row, spec.deploy)]
         if on_eval is not None:
             train_return = venv.mean_recent_return() if venv.episode_returns else None
             on_eval(timestep, row[1], train_return)
@@ -741,7 +751,8 @@ def _train_locked(
     model.save(out / (LAST_MODEL if spec.keep_best else "model"))
     if not eval_rows or eval_rows[-1][0] != model.num_timesteps:
         evaluate(model.num_timesteps)
-    deployed = _deploy_best(spec, out, domain, best, model.num_timesteps)
+    last_row = eval_rows[-1] if eval_rows else None
+    deployed = _deploy(spec, out, domain, best, last_row, model.num_timesteps)
     result = {
         "finished": True,
         "steps": int(model.num_timesteps),
@@ -752,6 +763,7 @@ def _train_locked(
         "final_train_return_mean": None if not venv.episode_returns else venv.mean_recent_return(),
         "final_eval_mean": eval_rows[-1][1] if eval_rows else None,
         "final_eval_std": eval_rows[-1][2] if eval_rows else None,
+        "deploy_mode": row_mode(eval_rows[-1], spec.deploy) if eval_rows else spec.deploy,
         "platform": platform_record(),
     }
     ledger = getattr(model, "advice", None)
@@ -760,7 +772,7 @@ def _train_locked(
     kept = getattr(model, "deployed", None)
     if kept is not None:  # the kept student: the step whose student predict deploys
         result["student_kept_from_step"] = int(kept.num_timesteps)
-    if deployed is not None:  # keep_best: the deployed model and its fresh evaluation
+    if deployed is not None:  # keep_best or choose: the deployed student, scored afresh
         result.update(deployed, last_eval_mean=eval_rows[-1][1], last_eval_std=eval_rows[-1][2])
     venv.close()
     probe_env.close()
@@ -788,32 +800,91 @@ def _model_files(out: Path, stem: str) -> list[str]:
     return [stem + ext for ext in (".pt", ".zip") if (out / (stem + ext)).exists()]
 
 
-def _deploy_best(
-    spec: RunSpec, out: Path, domain: Domain, best: list[Any] | None, last_step: int
+def scores_by_mode(
+    model: Any, domain: Domain, deploy: str, episodes: int, seed: int
+) -> dict[str, np.ndarray]:
+    """The student's returns on the same ``episodes`` episodes in each mode ``deploy`` names
+    (:data:`~tlac.argtypes.DEPLOY_MODES`: ``choose`` scores greedy, then sampled)."""
+    modes = ("greedy", "sampled") if deploy == "choose" else (deploy,)
+    return {
+        mode: evaluate_student(model, domain, episodes, seed, deterministic=mode == "greedy")
+        for mode in modes
+    }
+
+
+def eval_columns(deploy: str) -> list[str]:
+    """``eval.csv``'s header: under ``choose`` each row also names the mode it counts and
+    both modes' means."""
+    base = ["timestep", "mean_return", "std_return", "episodes"]
+    return base + (["mode", "greedy_mean", "sampled_mean"] if deploy == "choose" else [])
+
+
+def eval_row(timestep: int, scores: dict[str, np.ndarray]) -> tuple[Any, ...]:
+    """One evaluation's ``eval.csv`` row from its returns per mode (:func:`scores_by_mode`):
+    the higher-scoring mode's mean, std and episodes (the first mode, greedy, on a tie), and
+    with two modes that mode's name and each mode's mean.
+
+    >>> eval_row(8, {"greedy": np.array([1.0, 3.0]), "sampled": np.array([2.0, 2.0])})
+    (8, 2.0, 1.0, 2, 'greedy', 2.0, 2.0)
+    >>> eval_row(8, {"sampled": np.array([4.0])})
+    (8, 4.0, 0.0, 1)
+    """
+    means = {mode: float(returns.mean()) for mode, returns in scores.items()}
+    mode = max(means, key=means.__getitem__)  # max keeps the first of equal scores
+    returns = scores[mode]
+    row: tuple[Any, ...] = (timestep, means[mode], float(returns.std()), len(returns))
+    if len(scores) > 1:
+        row += (mode, means["greedy"], means["sampled"])
+    return row
+
+
+def row_mode(row: Sequence[Any], deploy: str) -> str:
+    """The mode an ``eval.csv`` row counts: named in the row under ``choose``, else ``deploy``."""
+    return str(row[4]) if deploy == "choose" else deploy
+
+
+def _deploy(
+    spec: RunSpec,
+    out: Path,
+    domain: Domain,
+    best: list[Any] | None,
+    last_row: Sequence[Any] | None,
+    last_step: int,
 ) -> dict[str, Any] | None:
-    """keep_best: copy the best evaluation's model to the run's ``model`` (the last weights are
-    in ``model-last``, removed when they are the best) and measure it on ``eval_episodes``
-    fresh episodes (seeds ``30_000 + seed``, none of the evaluations' ``10_000 + seed``).
-    Every step can be repeated: a run stopped here continues from its checkpoint and comes
-    back to the same files. Returns the result's fields, or None without keep_best."""
-    if not spec.keep_best or best is None:
+    """The deployed student, where a choice made on the evaluations' episodes names it:
+    ``keep_best`` copies the best evaluation's model to the run's ``model`` (the last weights
+    are in ``model-last``, removed when they are the best); ``choose`` takes the mode that
+    evaluation counted. The student is then measured in that mode on ``eval_episodes`` fresh
+    episodes (seeds ``30_000 + seed``, none of the evaluations' ``10_000 + seed``): the best
+    of several noisy scores overstates the one chosen. Every step can be repeated: a run
+    stopped here continues from its checkpoint and comes back to the same files. Returns the
+    result's fields, or None when nothing was chosen."""
+    if spec.keep_best and best is not None:
+        selection, step, mode = best[0], best[1], best[2] if len(best) > 2 else spec.deploy
+        for name in _model_files(out, BEST_MODEL):
+            suffix = Path(name).suffix
+            tmp = out / f"model.tmp{suffix}"
+            shutil.copyfile(out / name, tmp)
+            os.replace(tmp, out / ("model" + suffix))
+        if step == last_step:
+            for name in _model_files(out, LAST_MODEL):
+                (out / name).unlink()
+    elif spec.deploy == "choose" and last_row is not None:
+        selection, step, mode = last_row[1], None, row_mode(last_row, spec.deploy)
+    else:
         return None
-    for name in _model_files(out, BEST_MODEL):
-        suffix = Path(name).suffix
-        tmp = out / f"model.tmp{suffix}"
-        shutil.copyfile(out / name, tmp)
-        os.replace(tmp, out / ("model" + suffix))
-    if best[1] == last_step:
-        for name in _model_files(out, LAST_MODEL):
-            (out / name).unlink()
     model = load_run_model(out, spec.algo, trust_pickle=True)  # the file this process wrote
-    returns = evaluate_student(model, domain, spec.eval_episodes, seed=30_000 + spec.seed)
+    returns = evaluate_student(
+        model, domain, spec.eval_episodes, 30_000 + spec.seed, deterministic=mode == "greedy"
+    )
     fields: dict[str, Any] = {
         "final_eval_mean": float(returns.mean()),
         "final_eval_std": float(returns.std()),
-        "deployed_from_step": int(best[1]),
-        "deployed_selection_mean": float(best[0]),
+        "deploy_mode": mode,
+        "deployed_selection_mean": float(selection),
     }
+    if step is not None:
+        fields["deployed_from_step"] = int(step)
     kept = getattr(model, "deployed", None)  # the deployed model's own kept student
     if kept is not None:
         fields["student_kept_from_step"] = int(kept.num_timesteps)

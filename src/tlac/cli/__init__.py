@@ -25,7 +25,7 @@ from typing import Any
 
 import yaml
 
-from tlac.argtypes import non_negative_int, positive_int
+from tlac.argtypes import DEPLOY_MODES, non_negative_int, positive_int
 from tlac.errors import ConfigError, TlacError
 
 
@@ -209,6 +209,7 @@ def _cmd_train(args: argparse.Namespace) -> int:
         log_interval=args.log_interval,
         tensorboard=args.tensorboard,
         keep_best=args.eval_every is not None and not args.keep_last,
+        deploy=args.deploy,
     )
     run = resolve_run(spec, args.trust_pickle)
     if args.out is not None and not args.out.strip():
@@ -230,8 +231,9 @@ def _cmd_train(args: argparse.Namespace) -> int:
         from tqdm.auto import tqdm
 
         train = "n/a" if train_return is None else f"{train_return:.3f}"
+        mode = "the better of greedy and sampled" if spec.deploy == "choose" else spec.deploy
         tqdm.write(
-            f"step {timestep}: student alone {student:.3f} (greedy, {spec.eval_episodes} "
+            f"step {timestep}: student alone {student:.3f} ({mode}, {spec.eval_episodes} "
             f"episodes) | training return {train} (teachers included)"
         )
 
@@ -265,8 +267,9 @@ def _print_result(result: dict[str, Any], eval_episodes: int, out: Path) -> None
                 f"; the model of the best evaluation, step {result['deployed_from_step']} "
                 f"({result['deployed_selection_mean']:.3f} there), on fresh episodes{source}"
             )
+        mode = result.get("deploy_mode", "greedy")
         print(
-            f"student alone (no teachers, greedy{source}), {eval_episodes} episodes: "
+            f"student alone (no teachers, {mode}{source}), {eval_episodes} episodes: "
             f"{result['final_eval_mean']:.3f} +- {result['final_eval_std']:.3f}"
         )
         if result.get("deployed_from_step", result["steps"]) != result["steps"]:
@@ -281,7 +284,7 @@ def _cmd_eval(args: argparse.Namespace) -> int:
     import numpy as np
 
     from tlac.domains import get_domain, make_teachers
-    from tlac.evaluation import evaluate_policy
+    from tlac.evaluation import evaluate_policy, evaluate_student
     from tlac.experiments.config import domain_file
     from tlac.run import load_run_config, load_run_model
     from tlac.teachers.files import check_teacher_files
@@ -314,16 +317,13 @@ def _cmd_eval(args: argparse.Namespace) -> int:
 
         print(f"tlac: warning: {other_env_warning(trained_on, domain.name)}", file=sys.stderr)
     seed = args.seed
-    returns = evaluate_policy(
-        lambda o: model.predict(o, deterministic=not args.stochastic)[0],
-        domain,
-        args.episodes,
-        seed,
-    )
+    mode = "sampled" if args.stochastic else "greedy" if args.greedy else _deployed_mode(run)
+    returns = evaluate_student(model, domain, args.episodes, seed, deterministic=mode == "greedy")
     result: dict[str, Any] = {
         "run": str(run),
         "env": config["env"],
         "algo": config["algo"],
+        "mode": mode,
         "episodes": len(returns),
         "student_mean": float(np.mean(returns)),
         "student_std": float(np.std(returns)),
@@ -348,7 +348,7 @@ def _cmd_eval(args: argparse.Namespace) -> int:
         print(json.dumps(result))
     else:
         print(
-            f"student alone ({len(returns)} episodes): "
+            f"student alone ({mode}, {len(returns)} episodes): "
             f"{result['student_mean']:.3f} +- {result['student_std']:.3f}"
         )
         if args.with_teachers:
@@ -357,6 +357,16 @@ def _cmd_eval(args: argparse.Namespace) -> int:
                 f"{result['with_teachers_mean']:.3f} +- {result['with_teachers_std']:.3f}"
             )
     return 0
+
+
+def _deployed_mode(run: Path) -> str:
+    """How the run deploys its student (``result.json``'s ``deploy_mode``; greedy for a run
+    made before runs recorded it)."""
+    try:
+        mode = json.loads((run / "result.json").read_text()).get("deploy_mode", "greedy")
+    except (OSError, ValueError, AttributeError):
+        return "greedy"
+    return mode if mode in ("greedy", "sampled") else "greedy"
 
 
 def _check_teacher_code(kinds: list[str], trust_code: bool) -> None:
@@ -496,6 +506,15 @@ def build_parser() -> argparse.ArgumentParser:
         "weights in model-last)",
     )
     train.add_argument(
+        "--deploy",
+        choices=DEPLOY_MODES,
+        default="greedy",
+        help="how the student alone is scored and deployed: greedy (default), sampled "
+        "(predict's default, as SB3's), or choose: every evaluation scores both and the run "
+        "deploys the higher (with --eval-every, at its best evaluation), scored again on fresh "
+        "episodes; result.json's deploy_mode names it and tlac eval uses it",
+    )
+    train.add_argument(
         "--log-interval", type=positive_int, default=2000, help="steps per logging window"
     )
     train.add_argument(
@@ -544,9 +563,14 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="also evaluate the high level with its teachers",
     )
-    ev.add_argument(
-        "--stochastic", action="store_true", help="sample the student's actions (default: greedy)"
+    mode = ev.add_mutually_exclusive_group()
+    mode.add_argument(
+        "--stochastic",
+        action="store_true",
+        help="sample the student's actions (default: as the run deploys them, result.json's "
+        "deploy_mode; greedy for a run without one)",
     )
+    mode.add_argument("--greedy", action="store_true", help="the student's greedy actions")
     ev.add_argument("--json", action="store_true", help="print one JSON object")
     ev.add_argument(
         "--trust-pickle",

@@ -36,6 +36,7 @@ import gymnasium as gym
 
 from tlac.algorithms import NO_ADVICE, algorithm_names
 from tlac.algorithms.common import MAX_SEED
+from tlac.argtypes import DEPLOY_MODES
 from tlac.domains import DOMAIN_NAME, domain_names, get_domain, gym_id_hint
 from tlac.errors import ConfigError, TlacError, read_yaml_file
 from tlac.presets import load_preset, preset_names
@@ -61,7 +62,7 @@ TOP_KEYS = (
     "teacher_sets",
     "algorithms",
 )
-EVAL_KEYS = ("every", "episodes", "keep_best")
+EVAL_KEYS = ("every", "episodes", "keep_best", "deploy")
 METRIC_KEYS = (
     "jumpstart_window",
     "final_window",
@@ -85,6 +86,9 @@ class EvalSchedule:
     keep_best: bool = False
     """Deploy each run's student of its best evaluation, scored again on fresh episodes
     (``tlac.run.RunSpec.keep_best``); needs ``every``."""
+    deploy: str = "greedy"
+    """How each run's student is scored and deployed: greedy, sampled or choose
+    (``tlac.run.RunSpec.deploy``)."""
 
     def __post_init__(self) -> None:
         check = Checks("eval", file=True)
@@ -97,6 +101,8 @@ class EvalSchedule:
             raise check.error(
                 "keep_best", "eval.every and eval.episodes > 0 with it", self.keep_best
             )
+        if self.deploy not in DEPLOY_MODES:
+            raise check.error("deploy", f"one of {', '.join(DEPLOY_MODES)}", self.deploy)
 
 
 @dataclass(frozen=True)
@@ -335,6 +341,7 @@ def _eval_schedule(f: _Fields, value: Any) -> EvalSchedule:
         every=None if every is None else f.integer("eval.every", every, 1),
         episodes=f.integer("eval.episodes", ev.get("episodes", 10), 0),
         keep_best=keep_best,
+        deploy=ev.get("deploy", "greedy"),
     )
 
 

@@ -72,6 +72,7 @@ def expand_grid(config: ExperimentConfig) -> list[GridRun]:
                     eval_every=config.eval.every,
                     eval_episodes=config.eval.episodes,
                     keep_best=config.eval.keep_best,
+                    deploy=config.eval.deploy,
                     log_interval=config.log_interval,
                 )
                 runs.append(

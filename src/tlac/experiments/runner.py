@@ -100,6 +100,7 @@ SPEC_FIELDS = (
     "eval_episodes",
     "log_interval",
     "keep_best",
+    "deploy",
 )
 """RunSpec fields that must agree between a finished run's ``config.yaml`` and the grid."""
 

@@ -1,0 +1,148 @@
+"""How a run deploys its student: greedy, sampled, or the better of the two (``--deploy``).
+
+The choice is made on the evaluations' episodes and the chosen mode is scored again on fresh
+ones; sampled evaluations draw apart from the model's generators, so training is unchanged."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from tlac import TLAC
+from tlac.cli import main
+from tlac.domains import get_domain
+from tlac.errors import ConfigError
+from tlac.evaluation import evaluate_student
+from tlac.run import RunSpec, eval_row, train_run
+
+SPEC = dict(teachers=["optimal", "random"], steps=2048, seed=3, eval_every=512, eval_episodes=2)
+"""Evaluations at steps 0, 512, 1024, 1536 and 2048 on seeds 10_003, ...; the deployed
+student's fresh one on seeds 30_003, ..."""
+
+
+def _script(monkeypatch, scores: dict[tuple[int, str], list[float]]) -> list[tuple[int, str]]:
+    """Replace tlac.run's evaluations by ``scores[(seed, mode)]`` in turn; returns the
+    (seed, mode) of every evaluation asked for, in order."""
+    import tlac.run as run_module
+
+    left = {key: iter(values) for key, values in scores.items()}
+    asked: list[tuple[int, str]] = []
+
+    def scripted(model, domain, episodes, seed, deterministic=True):
+        key = (seed, "greedy" if deterministic else "sampled")
+        asked.append(key)
+        return np.full(episodes, next(left[key]))
+
+    monkeypatch.setattr(run_module, "evaluate_student", scripted)
+    return asked
+
+
+def test_eval_row_counts_the_higher_mode_and_greedy_on_a_tie():
+    tie = eval_row(0, {"greedy": np.array([0.5, 0.5]), "sampled": np.array([1.0, 0.0])})
+    assert tie == (0, 0.5, 0.0, 2, "greedy", 0.5, 0.5)
+    higher = eval_row(7, {"greedy": np.array([0.2]), "sampled": np.array([0.3])})
+    assert higher == (7, 0.3, 0.0, 1, "sampled", 0.2, 0.3)
+
+
+def test_choose_with_keep_best_deploys_the_best_evaluation_in_its_mode(tmp_path, monkeypatch):
+    """Every evaluation scores both modes; the best (step, mode) is deployed and scored again
+    in that mode on fresh episodes; eval.csv names each row's mode."""
+    asked = _script(
+        monkeypatch,
+        {
+            (10_003, "greedy"): [0.1, 0.2, 0.4, 0.2, 0.3],
+            (10_003, "sampled"): [0.0, 0.5, 0.4, 0.3, 0.1],
+            (30_003, "sampled"): [0.45],
+        },
+    )
+    out = tmp_path / "run"
+    result = train_run(RunSpec(**SPEC, keep_best=True, deploy="choose"), out)
+    assert asked[-1] == (30_003, "sampled") and len(asked) == 11
+    assert result["deploy_mode"] == "sampled" and result["deployed_from_step"] == 512
+    assert result["deployed_selection_mean"] == 0.5 and result["final_eval_mean"] == 0.45
+    assert result["last_eval_mean"] == 0.3  # step 2048: greedy 0.3 against sampled 0.1
+    assert TLAC.load(out / "model").num_timesteps == 512
+    rows = (out / "eval.csv").read_text().splitlines()
+    assert rows[0] == "timestep,mean_return,std_return,episodes,mode,greedy_mean,sampled_mean"
+    assert [r.split(",")[4] for r in rows[1:]] == [
+        "greedy",
+        "sampled",
+        "greedy",
+        "sampled",
+        "greedy",
+    ]
+
+
+def test_choose_without_keep_best_takes_the_last_evaluations_mode(tmp_path, monkeypatch):
+    asked = _script(
+        monkeypatch,
+        {
+            (10_003, "greedy"): [0.1, 0.2, 0.3, 0.2, 0.3],
+            (10_003, "sampled"): [0.0, 0.5, 0.1, 0.1, 0.6],
+            (30_003, "sampled"): [0.55],
+        },
+    )
+    result = train_run(RunSpec(**SPEC, deploy="choose"), tmp_path / "run")
+    assert asked[-1] == (30_003, "sampled")
+    assert result["deploy_mode"] == "sampled" and "deployed_from_step" not in result
+    assert result["deployed_selection_mean"] == 0.6 and result["final_eval_mean"] == 0.55
+
+
+def test_sampled_and_greedy_runs_score_one_mode_without_a_fresh_rescoring(tmp_path, monkeypatch):
+    for mode in ("sampled", "greedy"):
+        asked = _script(monkeypatch, {(10_003, mode): [0.1, 0.2, 0.3, 0.2, 0.25]})
+        result = train_run(RunSpec(**SPEC, deploy=mode), tmp_path / mode)
+        assert asked == [(10_003, mode)] * 5
+        assert result["deploy_mode"] == mode and result["final_eval_mean"] == 0.25
+        assert "deployed_selection_mean" not in result
+
+
+def test_training_is_the_same_whatever_the_deployment(tmp_path):
+    """The sampled evaluations draw apart from the model's generators: the episodes of
+    training are byte-identical under every mode."""
+    spec = dict(SPEC, steps=1536)
+    episodes = {}
+    for mode in ("greedy", "sampled", "choose"):
+        out = tmp_path / mode
+        train_run(RunSpec(**spec, deploy=mode), out)
+        episodes[mode] = (out / "episodes.csv").read_bytes()
+    assert episodes["greedy"] == episodes["sampled"] == episodes["choose"]
+    assert len(episodes["greedy"].splitlines()) > 10
+
+
+def test_a_sampled_evaluation_is_seeded_and_leaves_the_generators_as_they_were():
+    model = TLAC("doorkey", teachers=None, n_steps=64, seed=0)
+    domain = get_domain("doorkey")
+    acting = model.rng.bit_generator.state
+    torch_state = torch.random.get_rng_state()
+    first = evaluate_student(model, domain, 3, seed=5, deterministic=False)
+    again = evaluate_student(model, domain, 3, seed=5, deterministic=False)
+    assert np.array_equal(first, again)
+    assert model.rng.bit_generator.state == acting
+    assert torch.equal(torch.random.get_rng_state(), torch_state)
+
+
+def test_tlac_eval_acts_as_the_run_deploys(tmp_path, capsys):
+    out = tmp_path / "run"
+    base = ["train", "--steps", "64", "--no-progress", "--eval-episodes", "1", "--out", str(out)]
+    assert main([*base, "--deploy", "sampled"]) == 0
+    assert json.loads((out / "result.json").read_text())["deploy_mode"] == "sampled"
+    assert "student alone (no teachers, sampled" in capsys.readouterr().out
+    for flags, mode in (([], "sampled"), (["--greedy"], "greedy"), (["--stochastic"], "sampled")):
+        assert main(["eval", str(out), "--episodes", "2", "--json", *flags]) == 0
+        assert json.loads(capsys.readouterr().out)["mode"] == mode, flags
+
+
+def test_bad_deploy_values_name_the_choices():
+    with pytest.raises(ConfigError, match=r"unknown deploy 'best'.*greedy, sampled, choose"):
+        RunSpec(env="doorkey", deploy="best").validate()
+    from tlac.experiments.config import EvalSchedule
+
+    with pytest.raises(ConfigError, match=r"field 'deploy'.*one of greedy, sampled, choose"):
+        EvalSchedule(deploy="best")
+    with pytest.raises(SystemExit) as stop:
+        main(["train", "--deploy", "best"])
+    assert stop.value.code == 2
