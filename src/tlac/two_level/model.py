@@ -296,7 +296,8 @@ class TLAC:
     ) -> tuple[np.ndarray, None]:
         """Actions of the low-level policy alone (no teacher), with SB3's signature and
         defaults: ``(actions, None)``, sampled unless ``deterministic`` (the greedy student,
-        which tlac's evaluations and targets use); one observation gives one action, a batch
+        which tlac's targets use, and its evaluations unless a run deploys the sampled one:
+        ``tlac train --deploy``); one observation gives one action, a batch
         ``(n, *obs_shape)`` gives ``n`` actions."""
         obs, single = self.nets.check_obs(observation)
         actions = self.nets.student_actions(self._vec_normalized(obs), self.deployed, deterministic)
