@@ -5,6 +5,7 @@ ones; sampled evaluations draw apart from the model's generators, so training is
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -114,13 +115,15 @@ def test_training_is_the_same_whatever_the_deployment(tmp_path):
 
 
 def test_a_sampled_evaluation_is_seeded_and_leaves_the_generators_as_they_were():
-    model = TLAC("doorkey", teachers=None, n_steps=64, seed=0)
-    domain = get_domain("doorkey")
+    """An untrained CartPole student, whose sampled episodes differ with the draws."""
+    model = TLAC("CartPole-v1", teachers=None, seed=0)
+    domain = get_domain("CartPole-v1")
     acting = model.rng.bit_generator.state
     torch_state = torch.random.get_rng_state()
     first = evaluate_student(model, domain, 3, seed=5, deterministic=False)
     again = evaluate_student(model, domain, 3, seed=5, deterministic=False)
-    assert np.array_equal(first, again)
+    other = evaluate_student(model, domain, 3, seed=6, deterministic=False)
+    assert np.array_equal(first, again) and not np.array_equal(first, other)
     assert model.rng.bit_generator.state == acting
     assert torch.equal(torch.random.get_rng_state(), torch_state)
 
@@ -139,10 +142,37 @@ def test_tlac_eval_acts_as_the_run_deploys(tmp_path, capsys):
 def test_bad_deploy_values_name_the_choices():
     with pytest.raises(ConfigError, match=r"unknown deploy 'best'.*greedy, sampled, choose"):
         RunSpec(env="doorkey", deploy="best").validate()
+    with pytest.raises(ConfigError, match="give eval_episodes > 0"):
+        RunSpec(env="doorkey", deploy="choose", eval_episodes=0).validate()
+    with pytest.raises(ConfigError, match="dqn-tlql's student acts greedily only"):
+        RunSpec(env="doorkey", algo="dqn-tlql", deploy="sampled").validate()
     from tlac.experiments.config import EvalSchedule
 
     with pytest.raises(ConfigError, match=r"field 'deploy'.*one of greedy, sampled, choose"):
         EvalSchedule(deploy="best")
+    with pytest.raises(ConfigError, match=r"field 'deploy'.*greedy or sampled with episodes: 0"):
+        EvalSchedule(deploy="choose", episodes=0)
     with pytest.raises(SystemExit) as stop:
         main(["train", "--deploy", "best"])
     assert stop.value.code == 2
+
+
+def test_runs_made_before_the_deploy_setting_read_as_greedy(tmp_path):
+    """A config.yaml without ``deploy`` was written by a greedy run: the same command
+    continues it, and a grid asking for another mode is told that it differs."""
+    import yaml
+
+    from tlac.experiments.runner import spec_mismatch
+    from tlac.run import _same_settings, resolve_run
+
+    run = resolve_run(RunSpec(**SPEC))
+    out = tmp_path / "run"
+    out.mkdir()
+    config = {k: v for k, v in dataclasses.asdict(run.spec).items() if k != "deploy"}
+    config.update(teacher_kinds=run.teacher_kinds, preset=run.preset)
+    (out / "config.yaml").write_text(yaml.safe_dump(config))
+    assert _same_settings(out, run)
+    assert not _same_settings(out, resolve_run(RunSpec(**SPEC, deploy="choose")))
+    old = (out / "config.yaml").read_bytes()
+    assert spec_mismatch(RunSpec(**SPEC), old) is None
+    assert spec_mismatch(RunSpec(**SPEC, deploy="choose"), old) == "deploy='greedy' (now 'choose')"

@@ -76,8 +76,8 @@ def sampling_apart(model: Any, seed: int) -> Iterator[None]:
 
     rng = getattr(model, "rng", None)
     saved = rng.bit_generator.state if isinstance(rng, np.random.Generator) else None
-    with torch.random.fork_rng(devices=[]):
-        torch.manual_seed(seed)
+    with torch.random.fork_rng(devices=[]):  # the CPU generator, restored on leaving
+        torch.random.default_generator.manual_seed(seed)  # not the GPUs' (manual_seed's)
         if saved is not None:
             rng.bit_generator.state = np.random.default_rng(seed).bit_generator.state
         try:
@@ -189,10 +189,15 @@ class StudentEvalCallback(BaseCallback):
             return self.model.predict(obs, deterministic=self.deterministic)[0]
 
         seed = 10_000 + int(self.model.seed) if self.seed is None else self.seed
-        with sampling_apart(self.model, seed):  # greedy draws nothing; sampled draws apart
-            if isinstance(self.eval_env, VecEnv):
-                return vec_episode_returns(act, self.eval_env, self.n_eval_episodes, seed)
-            return episode_returns(act, [self.eval_env], self.n_eval_episodes, seed)
+        if self.deterministic:  # greedy actions draw nothing
+            return self._play(act, seed)
+        with sampling_apart(self.model, seed):
+            return self._play(act, seed)
+
+    def _play(self, act: Any, seed: int) -> np.ndarray:
+        if isinstance(self.eval_env, VecEnv):
+            return vec_episode_returns(act, self.eval_env, self.n_eval_episodes, seed)
+        return episode_returns(act, [self.eval_env], self.n_eval_episodes, seed)
 
 
 def vec_episode_returns(act: Any, venv: VecEnv, episodes: int, seed: int) -> np.ndarray:

@@ -161,6 +161,15 @@ class RunSpec:
             raise ConfigError(f"keep_best must be true or false, got {self.keep_best!r}")
         if self.deploy not in DEPLOY_MODES:
             raise UnknownNameError("deploy", self.deploy, list(DEPLOY_MODES))
+        if self.deploy == "choose" and self.eval_episodes == 0:
+            raise ConfigError(
+                "deploy choose chooses on the evaluations' episodes: give eval_episodes > 0"
+            )
+        samples = getattr(get_algorithm(self.algo), "samples_actions", True)
+        if self.deploy != "greedy" and not samples:
+            raise ConfigError(
+                f"deploy {self.deploy}: {self.algo}'s student acts greedily only; use greedy"
+            )
         if self.keep_best and (self.eval_every is None or self.eval_episodes == 0):
             raise ConfigError(
                 "keep_best chooses among periodic evaluations: give eval_every (--eval-every) "
@@ -357,6 +366,11 @@ def folder_lock(lock_file: Path, busy: str) -> Iterator[None]:
         lock.release()
 
 
+OLD_RUN_DEFAULTS = {"deploy": "greedy"}
+"""RunSpec fields added after runs were made, with the value those runs had: a ``config.yaml``
+without the field was written for it."""
+
+
 def _same_settings(out: Path, run: ResolvedRun) -> bool:
     """Whether ``out/config.yaml`` was written for exactly ``run``."""
     try:
@@ -369,7 +383,9 @@ def _same_settings(out: Path, run: ResolvedRun) -> bool:
         and saved.get("teacher_kinds") == run.teacher_kinds
         and saved.get("preset") == run.preset
         and all(
-            saved.get(k) == v for k, v in dataclasses.asdict(run.spec).items() if k not in resolved
+            saved.get(k, OLD_RUN_DEFAULTS.get(k)) == v
+            for k, v in dataclasses.asdict(run.spec).items()
+            if k not in resolved
         )
     )
 
@@ -685,6 +701,8 @@ def _train_locked(
 
     # keep_best: [mean, timestep, mode] of the best evaluation so far; its model is BEST_MODEL
     best: list[Any] | None = meta.get("best_eval")
+    if best is not None and len(best) == 2:  # a checkpoint made before runs chose a mode
+        best = [*best, spec.deploy]
 
     def evaluate(timestep: int) -> None:
         nonlocal best
@@ -860,7 +878,7 @@ def _deploy(
     stopped here continues from its checkpoint and comes back to the same files. Returns the
     result's fields, or None when nothing was chosen."""
     if spec.keep_best and best is not None:
-        selection, step, mode = best[0], best[1], best[2] if len(best) > 2 else spec.deploy
+        selection, step, mode = best
         for name in _model_files(out, BEST_MODEL):
             suffix = Path(name).suffix
             tmp = out / f"model.tmp{suffix}"

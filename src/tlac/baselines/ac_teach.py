@@ -367,6 +367,7 @@ class ACTeach(SB3Compat):
     )
     """The learn loop's attributes (``_<name>``) that a training-state checkpoint holds."""
     exact_resume = True  # save(training_state=True) / load(resume=True)
+    samples_actions = False  # predict is greedy whatever ``deterministic`` says
 
     @classmethod
     def check_hyperparameters(cls, hyperparameters: dict[str, Any]) -> ACTeachConfig:

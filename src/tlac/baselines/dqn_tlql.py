@@ -125,6 +125,7 @@ class DQNTLQL(SB3Compat):
     loop_state = ("last_obs", "next_target_update", "next_log", "vec_steps", "metrics")
     """The learn loop's attributes (``_<name>``) that a training-state checkpoint holds."""
     exact_resume = True  # save(training_state=True) / load(resume=True)
+    samples_actions = False  # predict is greedy whatever ``deterministic`` says
 
     @classmethod
     def check_hyperparameters(cls, hyperparameters: dict[str, Any]) -> DQNTLQLConfig:

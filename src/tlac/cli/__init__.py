@@ -267,6 +267,11 @@ def _print_result(result: dict[str, Any], eval_episodes: int, out: Path) -> None
                 f"; the model of the best evaluation, step {result['deployed_from_step']} "
                 f"({result['deployed_selection_mean']:.3f} there), on fresh episodes{source}"
             )
+        elif "deployed_selection_mean" in result:  # deploy choose, the last weights
+            source = (
+                f"; the mode of the last evaluation ({result['deployed_selection_mean']:.3f} "
+                f"there), on fresh episodes{source}"
+            )
         mode = result.get("deploy_mode", "greedy")
         print(
             f"student alone (no teachers, {mode}{source}), {eval_episodes} episodes: "
@@ -511,8 +516,9 @@ def build_parser() -> argparse.ArgumentParser:
         default="greedy",
         help="how the student alone is scored and deployed: greedy (default), sampled "
         "(predict's default, as SB3's), or choose: every evaluation scores both and the run "
-        "deploys the higher (with --eval-every, at its best evaluation), scored again on fresh "
-        "episodes; result.json's deploy_mode names it and tlac eval uses it",
+        "deploys the mode of its best evaluation (of its last with --keep-last or without "
+        "--eval-every), scored again on fresh episodes; result.json's deploy_mode names it and "
+        "tlac eval uses it",
     )
     train.add_argument(
         "--log-interval", type=positive_int, default=2000, help="steps per logging window"

@@ -103,6 +103,8 @@ class EvalSchedule:
             )
         if self.deploy not in DEPLOY_MODES:
             raise check.error("deploy", f"one of {', '.join(DEPLOY_MODES)}", self.deploy)
+        if self.deploy == "choose" and self.episodes == 0:
+            raise check.error("deploy", "greedy or sampled with episodes: 0", self.deploy)
 
 
 @dataclass(frozen=True)

@@ -108,8 +108,8 @@ def status_section(
         f"Training return = return of finished training episodes, teacher actions included "
         f"(the paper's training reward). Initial window (jumpstart): the first "
         f"{c.metrics.jumpstart_window:,} steps; final window: the last {final_window(c):,} steps. "
-        f"Student alone = the low-level policy without any teacher "
-        f"({c.eval.episodes} episodes per evaluation).",
+        f"Student alone = the low-level policy without any teacher"
+        f"{MODE_WORDS.get(c.eval.deploy, '')} ({c.eval.episodes} episodes per evaluation).",
     ]
     thin = seeds[seeds.finished < MIN_SEEDS]
     few = sorted(
@@ -349,6 +349,14 @@ def curves_caption(smoothing_bins: int, curve_points: int) -> str:
         "95% bootstrap interval of the mean (seeds resampled; the paper's Figures 3-9 show "
         "+-1 std); horizontal lines: each teacher's own return"
     )
+
+
+MODE_WORDS = {
+    "sampled": ", sampled",
+    "choose": ", greedy or sampled, whichever scores higher at each evaluation",
+}
+"""How the student alone acts in a report's figures and tables (``eval.deploy``; greedy, the
+default, goes unsaid)."""
 
 
 def student_caption(episodes: int) -> str:

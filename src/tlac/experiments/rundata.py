@@ -215,6 +215,7 @@ def read_run_folder(run_dir: str | Path) -> Experiment:
             "every": every,
             "episodes": run.get("eval_episodes", 10),
             "keep_best": bool(every and run.get("keep_best", False)),
+            "deploy": run.get("deploy", "greedy"),
         },
         "log_interval": run.get("log_interval", 2000),
         "teacher_sets": {}

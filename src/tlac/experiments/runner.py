@@ -49,7 +49,14 @@ from tlac.errors import ConfigError
 from tlac.experiments.archive import RunStore
 from tlac.experiments.config import ExperimentConfig, domain_file
 from tlac.experiments.grid import ERROR_FILE, RUNS_DIR, GridRun, expand_grid, run_dir
-from tlac.run import RESULT_FILE, RunSpec, atomic_write_text, folder_lock, resolve_run
+from tlac.run import (
+    OLD_RUN_DEFAULTS,
+    RESULT_FILE,
+    RunSpec,
+    atomic_write_text,
+    folder_lock,
+    resolve_run,
+)
 
 EXPERIMENT_FILE = "experiment.yaml"
 TEACHERS_FILE = "teachers.json"
@@ -120,6 +127,8 @@ def spec_mismatch(spec: RunSpec, config_yaml: bytes | None) -> str | None:
     if spec.preset is not None:
         wanted["preset"] = spec.preset
     for key, value in wanted.items():
+        if key not in done and key in OLD_RUN_DEFAULTS:
+            done[key] = OLD_RUN_DEFAULTS[key]
         if (
             key in done
             and done[key] != value
