@@ -178,6 +178,9 @@ class TLAC:
         self.greedy_solo = graduation.plays_solo_greedily(cfg, self.nets.discrete)
         self.solo = graduation.make_solo(cfg, self.n_envs, seed, self.n_teachers)
         self.deployed: StudentSnapshot | None = None  # None: predict uses the live weights
+        # the student that collected the last rollout, which a renewal of the kept student
+        # deploys (None before the first update: the live weights, which played everything)
+        self.collector: StudentSnapshot | None = None
         # who leads the episodes that start, named from outside the run (tlac teach's
         # take-over: collect.EpisodeLeader); None but in tlac teach, and never saved. The
         # paper variant keeps the episodes it leads in _led_by (-1: none)
@@ -267,6 +270,8 @@ class TLAC:
             if ro is None:  # an SB3 callback stopped training
                 break
             progress_remaining = 1.0 - (self.num_timesteps - origin) / horizon
+            if self.solo is not None:
+                self.collector = self.nets.snapshot_student(self.num_timesteps)
             progress.add(ro.choices, self.update(ro, max(progress_remaining, 0.0)))
             progress.show(end_steps)
             if self.num_timesteps >= end_steps:  # before the callbacks' last evaluation
@@ -280,10 +285,14 @@ class TLAC:
         return self
 
     def _deploy_if_worth(self, worth: bool) -> None:
-        """The kept student: make the live student the one ``predict`` deploys when its recent
-        solo episodes say it is worth it (after each solo episode, and at the end of ``learn``:
-        tlac.two_level.graduation.worth_deploying)."""
-        if worth:
+        """The kept student: when the recent solo episodes say it is worth it (after each solo
+        episode, and at the end of ``learn``: tlac.two_level.graduation.worth_deploying),
+        ``predict`` deploys the student that collected the last rollout, whose episodes those
+        are, not the live weights that its update left and that have played little or nothing
+        (the update can be the one that collapses: docs/graduation.md)."""
+        if worth and self.collector is not None:
+            self.deployed = self.collector
+        elif worth:  # before the first update: the live weights played every episode
             self.deployed = self.nets.snapshot_student(self.num_timesteps)
 
     # ----------------------------------------------------------------- acting
