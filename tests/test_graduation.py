@@ -319,6 +319,8 @@ def test_a_renewal_deploys_the_student_that_played_the_episodes(tmp_path):
     loaded = TLAC.load(path, env=gym.make("CartPole-v1"), teachers=[upright], resume=True)
     assert same(loaded.collector, m.collector)
     assert loaded.collector.num_timesteps == m.collector.num_timesteps == 2016
+    loaded.set_parameters(TLAC.load(path).get_parameters())  # weights from outside
+    assert loaded.collector is None  # the next renewal before an update takes the live ones
 
 
 def _box_model(**settings):

@@ -298,6 +298,7 @@ def load_parameters(model: Any, params: dict[str, Any], where: str) -> None:
         model.nets.normalizer.set_state(params["normalizer"])
     if "deployed" in params:  # the kept student (solo episodes); None: the live weights
         model.deployed = snapshot_of(model, params["deployed"])
+    model.collector = None  # new weights: a renewal before the next update takes them
 
 
 def snapshot_of(model: Any, saved: dict[str, Any] | None) -> StudentSnapshot | None:
