@@ -5,7 +5,7 @@ on its own (:func:`measure_teacher`: the mean return the paper quotes beside eac
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager, nullcontext
 from typing import Any
 
 import gymnasium as gym
@@ -93,11 +93,16 @@ def evaluate_student(
     """Returns of ``model.predict`` alone (no teacher) over ``episodes`` episodes seeded
     ``seed, seed + 1, ...``; sampled actions (``deterministic=False``) are drawn apart from the
     model's generators (:func:`sampling_apart`), seeded ``seed``."""
-    act = lambda o: model.predict(o, deterministic=deterministic)[0]  # noqa: E731
-    if deterministic:
-        return evaluate_policy(act, domain, episodes, seed)
-    with sampling_apart(model, seed):
-        return evaluate_policy(act, domain, episodes, seed)
+    with draws_apart(model, seed, deterministic):
+        return evaluate_policy(
+            lambda o: model.predict(o, deterministic=deterministic)[0], domain, episodes, seed
+        )
+
+
+def draws_apart(model: Any, seed: int, deterministic: bool) -> AbstractContextManager[Any]:
+    """:func:`sampling_apart` where the actions are sampled; nothing where they are greedy
+    (greedy actions draw nothing)."""
+    return nullcontext() if deterministic else sampling_apart(model, seed)
 
 
 class StudentEvalCallback(BaseCallback):
@@ -189,15 +194,10 @@ class StudentEvalCallback(BaseCallback):
             return self.model.predict(obs, deterministic=self.deterministic)[0]
 
         seed = 10_000 + int(self.model.seed) if self.seed is None else self.seed
-        if self.deterministic:  # greedy actions draw nothing
-            return self._play(act, seed)
-        with sampling_apart(self.model, seed):
-            return self._play(act, seed)
-
-    def _play(self, act: Any, seed: int) -> np.ndarray:
-        if isinstance(self.eval_env, VecEnv):
-            return vec_episode_returns(act, self.eval_env, self.n_eval_episodes, seed)
-        return episode_returns(act, [self.eval_env], self.n_eval_episodes, seed)
+        with draws_apart(self.model, seed, self.deterministic):
+            if isinstance(self.eval_env, VecEnv):
+                return vec_episode_returns(act, self.eval_env, self.n_eval_episodes, seed)
+            return episode_returns(act, [self.eval_env], self.n_eval_episodes, seed)
 
 
 def vec_episode_returns(act: Any, venv: VecEnv, episodes: int, seed: int) -> np.ndarray:
