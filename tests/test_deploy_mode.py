@@ -75,6 +75,12 @@ def test_choose_with_keep_best_deploys_the_best_evaluation_in_its_mode(tmp_path,
         "sampled",
         "greedy",
     ]
+    logged = [line.split(",") for line in (out / "progress.csv").read_text().splitlines()]
+    by_key = lambda key: [float(r[2]) for r in logged if r[1] == key]  # noqa: E731
+    assert by_key("eval/student_alone_mean") == [0.1, 0.5, 0.4, 0.3, 0.3]
+    assert by_key("eval/greedy_mean") == [0.1, 0.2, 0.4, 0.2, 0.3]
+    assert by_key("eval/sampled_mean") == [0.0, 0.5, 0.4, 0.3, 0.1]
+    assert by_key("eval/deploys_sampled") == [0.0, 1.0, 0.0, 1.0, 0.0]
 
 
 def test_choose_without_keep_best_takes_the_last_evaluations_mode(tmp_path, monkeypatch):
@@ -157,9 +163,13 @@ def test_bad_deploy_values_name_the_choices():
     assert stop.value.code == 2
 
 
-def test_runs_made_before_the_deploy_setting_read_as_greedy(tmp_path):
-    """A config.yaml without ``deploy`` was written by a greedy run: the same command
-    continues it, and a grid asking for another mode is told that it differs."""
+@pytest.mark.parametrize(
+    "field, old_value, new_value", [("deploy", "greedy", "choose"), ("keep_best", False, True)]
+)
+def test_runs_made_before_a_setting_read_as_its_old_value(tmp_path, field, old_value, new_value):
+    """A config.yaml without ``deploy`` was written by a greedy run, one without
+    ``keep_best`` by a run that kept its last weights: the same command continues it, and a
+    grid asking for another value is told that it differs."""
     import yaml
 
     from tlac.experiments.runner import spec_mismatch
@@ -168,11 +178,12 @@ def test_runs_made_before_the_deploy_setting_read_as_greedy(tmp_path):
     run = resolve_run(RunSpec(**SPEC))
     out = tmp_path / "run"
     out.mkdir()
-    config = {k: v for k, v in dataclasses.asdict(run.spec).items() if k != "deploy"}
+    config = {k: v for k, v in dataclasses.asdict(run.spec).items() if k != field}
     config.update(teacher_kinds=run.teacher_kinds, preset=run.preset)
     (out / "config.yaml").write_text(yaml.safe_dump(config))
+    other = RunSpec(**SPEC, **{field: new_value})
     assert _same_settings(out, run)
-    assert not _same_settings(out, resolve_run(RunSpec(**SPEC, deploy="choose")))
+    assert not _same_settings(out, resolve_run(other))
     old = (out / "config.yaml").read_bytes()
     assert spec_mismatch(RunSpec(**SPEC), old) is None
-    assert spec_mismatch(RunSpec(**SPEC, deploy="choose"), old) == "deploy='greedy' (now 'choose')"
+    assert spec_mismatch(other, old) == f"{field}={old_value!r} (now {new_value!r})"

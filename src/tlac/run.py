@@ -366,7 +366,7 @@ def folder_lock(lock_file: Path, busy: str) -> Iterator[None]:
         lock.release()
 
 
-OLD_RUN_DEFAULTS = {"deploy": "greedy"}
+OLD_RUN_DEFAULTS = {"deploy": "greedy", "keep_best": False}
 """RunSpec fields added after runs were made, with the value those runs had: a ``config.yaml``
 without the field was written for it."""
 
@@ -713,9 +713,7 @@ def _train_locked(
         eval_rows.append(row)
         with eval_file.open("a") as f:
             f.write(",".join(str(v) for v in row) + "\n")
-        recorder.record_metrics(  # progress.csv and TensorBoard: the headline figure
-            timestep, {"eval/student_alone_mean": row[1], "eval/student_alone_std": row[2]}
-        )
+        recorder.record_metrics(timestep, eval_metrics(row, spec.deploy))  # the headline figure
         if spec.keep_best and (best is None or row[1] >= best[0]):  # ties: the later one
             model.save(out / BEST_MODEL)
             best = [row[1], timestep, row_mode(row, spec.deploy)]
@@ -854,6 +852,27 @@ def eval_row(timestep: int, scores: dict[str, np.ndarray]) -> tuple[Any, ...]:
     if len(scores) > 1:
         row += (mode, means["greedy"], means["sampled"])
     return row
+
+
+def eval_metrics(row: Sequence[Any], deploy: str) -> dict[str, float]:
+    """An evaluation's scalars for ``progress.csv`` and TensorBoard: the student alone as
+    counted (``eval.csv``'s mean and std), and where the run does not deploy the greedy student
+    the mode's own name: under ``choose`` each mode's mean and ``eval/deploys_sampled`` (1 where
+    the sampled student counted).
+
+    >>> eval_metrics((8, 2.0, 1.0, 2), "greedy")
+    {'eval/student_alone_mean': 2.0, 'eval/student_alone_std': 1.0}
+    >>> eval_metrics((8, 3.0, 0.0, 2, "sampled", 2.0, 3.0), "choose")["eval/deploys_sampled"]
+    1.0
+    """
+    metrics = {"eval/student_alone_mean": float(row[1]), "eval/student_alone_std": float(row[2])}
+    if deploy == "choose":
+        metrics["eval/greedy_mean"] = float(row[5])
+        metrics["eval/sampled_mean"] = float(row[6])
+        metrics["eval/deploys_sampled"] = float(row[4] == "sampled")
+    elif deploy == "sampled":
+        metrics["eval/sampled_mean"] = float(row[1])
+    return metrics
 
 
 def row_mode(row: Sequence[Any], deploy: str) -> str:
