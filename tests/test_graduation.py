@@ -289,6 +289,68 @@ def test_solo_window_decides_which_student_is_deployed():
     assert solo.end(0, 5.0) is False  # assisted episodes never deploy
 
 
+def test_a_renewal_deploys_the_student_that_played_the_episodes(tmp_path):
+    """The kept student renewed is the one that collected the last rollout (whose episodes
+    said it was worth it), not the live weights its update left; a checkpoint keeps it."""
+
+    def same(a, b) -> bool:
+        pairs = zip(a.layers, b.layers, strict=True)
+        return all(np.array_equal(x, y) for pa, pb in pairs for x, y in zip(pa, pb, strict=True))
+
+    def upright(obs):
+        return int(obs[2] > 0)
+
+    m = TLAC(
+        gym.make("CartPole-v1"),
+        teachers=[upright],
+        seed=0,
+        solo_budget=1.0,
+        n_steps=16,
+        batch_size=16,
+    )
+    m.learn(2000, progress_bar=False)
+    collector = m.collector
+    assert collector.num_timesteps == m.num_timesteps  # taken before the last update
+    assert not same(collector, m.nets.snapshot_student(m.num_timesteps))  # which moved on
+    m.solo.solo_returns.extend([1000.0] * 20)  # a new best window, whatever ends next
+    m.learn(16, reset_num_timesteps=False)
+    assert m.deployed is m.collector and not same(m.deployed, m.nets.snapshot_student(0))
+    path = m.save(tmp_path / "c.pt", training_state=True)
+    loaded = TLAC.load(path, env=gym.make("CartPole-v1"), teachers=[upright], resume=True)
+    assert same(loaded.collector, m.collector)
+    assert loaded.collector.num_timesteps == m.collector.num_timesteps == 2016
+    loaded.set_parameters(TLAC.load(path).get_parameters())  # weights from outside
+    assert loaded.collector is None  # the next renewal before an update takes the live ones
+
+
+def test_the_weights_a_model_starts_from_are_never_the_kept_student():
+    """A one-rollout run deploys what its update made (a window of the untrained student's
+    solo returns says nothing of it); from the second rollout on, a renewal takes the student
+    one update behind the live weights."""
+
+    def same(a, b) -> bool:
+        pairs = zip(a.layers, b.layers, strict=True)
+        return all(np.array_equal(x, y) for pa, pb in pairs for x, y in zip(pa, pb, strict=True))
+
+    m = TLAC(
+        gym.make("CartPole-v1"),
+        teachers=[lambda obs: int(obs[2] > 0)],
+        seed=0,
+        solo_budget=1.0,
+        n_steps=64,
+        batch_size=64,
+    )
+    start = m.nets.snapshot_student(0)
+    m.solo.latest_is_worth_deploying = lambda: True  # every window qualifies
+    m.learn(64, progress_bar=False)
+    assert m.collector is None
+    assert same(m.deployed, m.nets.snapshot_student(64)) and not same(m.deployed, start)
+    after_one = m.nets.snapshot_student(64)
+    m.learn(64, reset_num_timesteps=False, progress_bar=False)
+    assert m.deployed is m.collector and same(m.collector, after_one)
+    assert not same(m.deployed, m.nets.snapshot_student(128))
+
+
 def _box_model(**settings):
     env = gym.make("Pendulum-v1")
 

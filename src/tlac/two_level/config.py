@@ -290,10 +290,11 @@ class TLACConfig:
     """Graduation by solo episodes: an episode is played by the student alone with probability
     min(1, solo_budget / (1 - competence)), competence measured from recent solo and assisted
     returns (tlac.two_level.graduation), so solo play costs the training return about
-    solo_budget of the teachers' margin. ``predict`` (the student a user deploys) uses the last
-    snapshot of the low level taken when its window of 20 solo returns was not clearly below
-    the best such window so far (tlac.two_level.graduation.worth_deploying), rather than
-    whatever the last update left. None: the variant's (graduate 0.05, paper 0: no solo
+    solo_budget of the teachers' margin. ``predict`` (the student a user deploys) uses a
+    kept student, renewed when its window of 20 solo returns, and that window's latest 5, are
+    not clearly below the best such window so far (tlac.two_level.graduation.worth_deploying),
+    as the student that collected the last rollout (one update behind the live weights), rather
+    than whatever the last update left. None: the variant's (graduate 0.05, paper 0: no solo
     episodes, and ``predict`` uses the live weights)."""
     normalize_obs: bool | str = False
     """Normalise the networks' observations by their running mean and std (SB3's VecNormalize,

@@ -128,8 +128,13 @@ def entropy_coefs(
     return settings + torch.tensor([bonus, 0.0])
 
 
+RECENT_SOLO = 5
+"""The latest solo episodes that must also be in line with the best window before the student
+is deployed (:func:`worth_deploying`)."""
+
+
 def worth_deploying(
-    window: deque[float], best: float, n_windows: float = 1.0
+    window: deque[float], best: float, n_windows: float = 1.0, recent: int = RECENT_SOLO
 ) -> tuple[bool, float]:
     """Whether the student that just played the solo episodes in ``window`` should be the one
     deployed, and the new best window mean. Yes unless the window's mean is clearly below
@@ -138,7 +143,10 @@ def worth_deploying(
     student's true level by about ``sqrt(2 ln n_windows)`` standard errors (the expected
     maximum of that many Gaussians), so without that term a student that played many solo
     episodes would be held to a lucky peak; ``n_windows`` counts disjoint windows' worth of
-    solo episodes.
+    solo episodes. The ``recent`` latest episodes must pass the same test (their mean, their
+    count's standard error, the window's spread): the window's older episodes were played by
+    older students, and a student that has just collapsed shows first in a few bad episodes,
+    which lower the window's mean little and widen its spread (CartPole, docs/graduation.md).
 
     >>> worth_deploying(deque([1.0, 0.0, 1.0, 1.0]), best=0.9)   # mean 0.75, se ~0.22
     (True, 0.9)
@@ -146,12 +154,20 @@ def worth_deploying(
     (False, 0.9)
     >>> worth_deploying(deque([0.0, 0.0, 1.0, 0.0]), best=0.9, n_windows=100)  # slack 4 se
     (True, 0.9)
+    >>> collapsing = deque([500.0] * 17 + [100.0] * 3)  # mean 440, slack 3.04 x std 142.8
+    >>> worth_deploying(collapsing, best=500.0, n_windows=8, recent=20)  # 440 >= 402.9
+    (True, 500.0)
+    >>> worth_deploying(collapsing, best=500.0, n_windows=8)  # the latest 5: 260 < 305.9
+    (False, 500.0)
     """
     returns = np.asarray(window, dtype=np.float64)
     mean = float(returns.mean())
     best = max(best, mean)
-    slack = 1.0 + np.sqrt(2.0 * np.log(max(n_windows, 1.0)))
-    return bool(mean >= best - slack * float(returns.std()) / np.sqrt(len(returns))), best
+    spread = (1.0 + np.sqrt(2.0 * np.log(max(n_windows, 1.0)))) * float(returns.std())
+    latest = returns[-recent:]
+    whole_in_line = mean >= best - spread / np.sqrt(len(returns))
+    latest_in_line = float(latest.mean()) >= best - spread / np.sqrt(len(latest))
+    return bool(whole_in_line and latest_in_line), best
 
 
 class StudentSnapshot:

@@ -178,6 +178,11 @@ class TLAC:
         self.greedy_solo = graduation.plays_solo_greedily(cfg, self.nets.discrete)
         self.solo = graduation.make_solo(cfg, self.n_envs, seed, self.n_teachers)
         self.deployed: StudentSnapshot | None = None  # None: predict uses the live weights
+        # the student that collected the last rollout (the live weights before the last
+        # update), which a renewal of the kept student deploys; None where those were the
+        # weights the model started from, and after a change of weights from outside: then
+        # the live weights
+        self.collector: StudentSnapshot | None = None
         # who leads the episodes that start, named from outside the run (tlac teach's
         # take-over: collect.EpisodeLeader); None but in tlac teach, and never saved. The
         # paper variant keeps the episodes it leads in _led_by (-1: none)
@@ -242,6 +247,7 @@ class TLAC:
         self.log_interval = checked or self.log_interval  # steps per logged window
         if reset_num_timesteps and self._resumed_schedule is None and self.num_timesteps:
             self.num_timesteps, self._last_obs = 0, None  # SB3: a new count, new episodes
+            self.collector = None  # labelled with the old count
         start_steps = self.num_timesteps
         end_steps = start_steps + total_timesteps
         # the schedules' clock: this call's steps, or, right after a resume, the interrupted
@@ -267,6 +273,10 @@ class TLAC:
             if ro is None:  # an SB3 callback stopped training
                 break
             progress_remaining = 1.0 - (self.num_timesteps - origin) / horizon
+            if self.solo is not None:  # the weights a model starts from are never kept: a
+                # window of their solo returns says nothing of what the first update made
+                trained = self._n_updates > 0
+                self.collector = self.nets.snapshot_student(self.num_timesteps) if trained else None
             progress.add(ro.choices, self.update(ro, max(progress_remaining, 0.0)))
             progress.show(end_steps)
             if self.num_timesteps >= end_steps:  # before the callbacks' last evaluation
@@ -280,10 +290,16 @@ class TLAC:
         return self
 
     def _deploy_if_worth(self, worth: bool) -> None:
-        """The kept student: make the live student the one ``predict`` deploys when its recent
-        solo episodes say it is worth it (after each solo episode, and at the end of ``learn``:
-        tlac.two_level.graduation.worth_deploying)."""
-        if worth:
+        """The kept student: when the recent solo episodes say it is worth it (after each solo
+        episode, and at the end of ``learn``: tlac.two_level.graduation.worth_deploying),
+        ``predict`` deploys the student that collected the last rollout, one update behind the
+        live weights: the window's episodes were played by it and the students before it, and
+        by the live weights only since the last update, which can be the one that collapses (a
+        collapse shows in the returns of episodes that end a rollout or more later:
+        docs/graduation.md, "The kept student")."""
+        if worth and self.collector is not None:
+            self.deployed = self.collector
+        elif worth:  # before the first update: the live weights played every episode
             self.deployed = self.nets.snapshot_student(self.num_timesteps)
 
     # ----------------------------------------------------------------- acting

@@ -297,16 +297,19 @@ def load_parameters(model: Any, params: dict[str, Any], where: str) -> None:
             )
         model.nets.normalizer.set_state(params["normalizer"])
     if "deployed" in params:  # the kept student (solo episodes); None: the live weights
-        saved = params["deployed"]
-        model.deployed = (
-            None
-            if saved is None
-            else StudentSnapshot.from_state(
-                saved,
-                copy.deepcopy(model.nets.normalizer),
-                model.nets.encoder.frozen_copy() if model.nets.extractor_params else None,
-            )
-        )
+        model.deployed = snapshot_of(model, params["deployed"])
+    model.collector = None  # new weights: a renewal before the next update takes them
+
+
+def snapshot_of(model: Any, saved: dict[str, Any] | None) -> StudentSnapshot | None:
+    """A saved :class:`StudentSnapshot` of ``model``'s student, rebuilt (None: none saved)."""
+    if saved is None:
+        return None
+    return StudentSnapshot.from_state(
+        saved,
+        copy.deepcopy(model.nets.normalizer),
+        model.nets.encoder.frozen_copy() if model.nets.extractor_params else None,
+    )
 
 
 def set_parameters(
@@ -378,6 +381,7 @@ def get_training_state(model: Any) -> dict[str, Any]:
         "env": vec_env_state(model.env),
         "schedule": None if model._schedule is None else list(model._schedule),
         "n_updates": model._n_updates,
+        "collector": None if model.collector is None else model.collector.state(),
         "log_window": None
         if model._log_window is None
         else {
@@ -434,6 +438,7 @@ def set_training_state(model: Any, state: dict[str, Any]) -> None:
     schedule = state["schedule"]
     model._resumed_schedule = None if schedule is None else (int(schedule[0]), int(schedule[1]))
     model._n_updates = int(state.get("n_updates", 0))
+    model.collector = snapshot_of(model, state.get("collector"))
     saved_window = state.get("log_window")
     if saved_window is not None:
         window = MetricWindow(counts=("train/n_updates",))
