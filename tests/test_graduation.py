@@ -309,9 +309,8 @@ def test_a_renewal_deploys_the_student_that_played_the_episodes(tmp_path):
         batch_size=16,
     )
     m.learn(2000, progress_bar=False)
-    collector = m.collector
-    assert collector.num_timesteps == m.num_timesteps  # taken before the last update
-    assert not same(collector, m.nets.snapshot_student(m.num_timesteps))  # which moved on
+    collector = m.collector  # taken before the last update, which moved the live weights on
+    assert not same(collector, m.nets.snapshot_student(m.num_timesteps))
     m.solo.solo_returns.extend([1000.0] * 20)  # a new best window, whatever ends next
     m.learn(16, reset_num_timesteps=False)
     assert m.deployed is m.collector and not same(m.deployed, m.nets.snapshot_student(0))
@@ -324,9 +323,9 @@ def test_a_renewal_deploys_the_student_that_played_the_episodes(tmp_path):
 
 
 def test_the_weights_a_model_starts_from_are_never_the_kept_student():
-    """A one-rollout run deploys what its update made (a window of the untrained student's
-    solo returns says nothing of it); from the second rollout on, a renewal takes the student
-    one update behind the live weights."""
+    """Windows played before the first update never renew the kept student; after it, while the
+    starting weights were the collecting ones, a renewal takes the live weights (a one-rollout
+    run deploys what its update made); from then on, the student one update behind them."""
 
     def same(a, b) -> bool:
         pairs = zip(a.layers, b.layers, strict=True)
@@ -337,18 +336,26 @@ def test_the_weights_a_model_starts_from_are_never_the_kept_student():
         teachers=[lambda obs: int(obs[2] > 0)],
         seed=0,
         solo_budget=1.0,
-        n_steps=64,
+        n_steps=512,
         batch_size=64,
     )
-    start = m.nets.snapshot_student(0)
-    m.solo.latest_is_worth_deploying = lambda: True  # every window qualifies
-    m.learn(64, progress_bar=False)
-    assert m.collector is None
-    assert same(m.deployed, m.nets.snapshot_student(64)) and not same(m.deployed, start)
-    after_one = m.nets.snapshot_student(64)
-    m.learn(64, reset_num_timesteps=False, progress_bar=False)
+    asked_untrained = []
+
+    def untrained_windows_only() -> bool:  # an untrained student's lucky windows
+        asked_untrained.append(m._n_updates == 0)
+        return m._n_updates == 0
+
+    m.solo.latest_is_worth_deploying = untrained_windows_only
+    m.learn(512, progress_bar=False)
+    assert sum(asked_untrained) >= 2 and asked_untrained[-1] is False  # during and at the end
+    assert m.deployed is None and m.collector is None  # predict: the live, updated weights
+    m.solo.latest_is_worth_deploying = lambda: True  # from now on every window qualifies
+    m._deploy_if_worth(True)
+    after_one = m.nets.snapshot_student(512)
+    assert same(m.deployed, after_one)
+    m.learn(512, reset_num_timesteps=False, progress_bar=False)
     assert m.deployed is m.collector and same(m.collector, after_one)
-    assert not same(m.deployed, m.nets.snapshot_student(128))
+    assert not same(m.deployed, m.nets.snapshot_student(1024))
 
 
 def _box_model(**settings):

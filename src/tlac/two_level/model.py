@@ -273,8 +273,7 @@ class TLAC:
             if ro is None:  # an SB3 callback stopped training
                 break
             progress_remaining = 1.0 - (self.num_timesteps - origin) / horizon
-            if self.solo is not None:  # the weights a model starts from are never kept: a
-                # window of their solo returns says nothing of what the first update made
+            if self.solo is not None:  # the weights the model started from are never kept
                 trained = self._n_updates > 0
                 self.collector = self.nets.snapshot_student(self.num_timesteps) if trained else None
             progress.add(ro.choices, self.update(ro, max(progress_remaining, 0.0)))
@@ -296,10 +295,14 @@ class TLAC:
         live weights: the window's episodes were played by it and the students before it, and
         by the live weights only since the last update, which can be the one that collapses (a
         collapse shows in the returns of episodes that end a rollout or more later:
-        docs/graduation.md, "The kept student")."""
-        if worth and self.collector is not None:
+        docs/graduation.md, "The kept student"). The weights the model started from (before
+        its first update) are never kept: a window of their solo returns says nothing of what
+        the updates make, and while they collect, a renewal takes the live weights."""
+        if not worth or self._n_updates == 0:
+            return
+        if self.collector is not None:
             self.deployed = self.collector
-        elif worth:  # before the first update: the live weights played every episode
+        else:  # the collecting student was the starting one: the live weights, since updated
             self.deployed = self.nets.snapshot_student(self.num_timesteps)
 
     # ----------------------------------------------------------------- acting

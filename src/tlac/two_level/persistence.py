@@ -438,6 +438,8 @@ def set_training_state(model: Any, state: dict[str, Any]) -> None:
     schedule = state["schedule"]
     model._resumed_schedule = None if schedule is None else (int(schedule[0]), int(schedule[1]))
     model._n_updates = int(state.get("n_updates", 0))
+    # a checkpoint from before 2026-11-30 has none: the first rollout's renewals take the live
+    # weights, as the rule before did
     model.collector = snapshot_of(model, state.get("collector"))
     saved_window = state.get("log_window")
     if saved_window is not None:
