@@ -289,13 +289,27 @@ def test_solo_window_decides_which_student_is_deployed():
     assert solo.end(0, 5.0) is False  # assisted episodes never deploy
 
 
+def _same_student(a, b) -> bool:
+    """Whether two student snapshots hold the same weights."""
+    pairs = zip(a.layers, b.layers, strict=True)
+    return all(np.array_equal(x, y) for pa, pb in pairs for x, y in zip(pa, pb, strict=True))
+
+
+def _solo_cartpole(n_steps: int) -> TLAC:
+    """TL-AC on CartPole with one upright teacher and every episode the student's alone."""
+    return TLAC(
+        gym.make("CartPole-v1"),
+        teachers=[lambda obs: int(obs[2] > 0)],
+        seed=0,
+        solo_budget=1.0,
+        n_steps=n_steps,
+        batch_size=min(n_steps, 64),
+    )
+
+
 def test_a_renewal_deploys_the_student_that_played_the_episodes(tmp_path):
     """The kept student renewed is the one that collected the last rollout (whose episodes
     said it was worth it), not the live weights its update left; a checkpoint keeps it."""
-
-    def same(a, b) -> bool:
-        pairs = zip(a.layers, b.layers, strict=True)
-        return all(np.array_equal(x, y) for pa, pb in pairs for x, y in zip(pa, pb, strict=True))
 
     def upright(obs):
         return int(obs[2] > 0)
@@ -310,13 +324,13 @@ def test_a_renewal_deploys_the_student_that_played_the_episodes(tmp_path):
     )
     m.learn(2000, progress_bar=False)
     collector = m.collector  # taken before the last update, which moved the live weights on
-    assert not same(collector, m.nets.snapshot_student(m.num_timesteps))
+    assert not _same_student(collector, m.nets.snapshot_student(m.num_timesteps))
     m.solo.solo_returns.extend([1000.0] * 20)  # a new best window, whatever ends next
     m.learn(16, reset_num_timesteps=False)
-    assert m.deployed is m.collector and not same(m.deployed, m.nets.snapshot_student(0))
+    assert m.deployed is m.collector and not _same_student(m.deployed, m.nets.snapshot_student(0))
     path = m.save(tmp_path / "c.pt", training_state=True)
     loaded = TLAC.load(path, env=gym.make("CartPole-v1"), teachers=[upright], resume=True)
-    assert same(loaded.collector, m.collector)
+    assert _same_student(loaded.collector, m.collector)
     assert loaded.collector.num_timesteps == m.collector.num_timesteps == 2016
     loaded.set_parameters(TLAC.load(path).get_parameters())  # weights from outside
     assert loaded.collector is None  # the next renewal before an update takes the live ones
@@ -327,18 +341,7 @@ def test_the_weights_a_model_starts_from_are_never_the_kept_student():
     starting weights were the collecting ones, a renewal takes the live weights (a one-rollout
     run deploys what its update made); from then on, the student one update behind them."""
 
-    def same(a, b) -> bool:
-        pairs = zip(a.layers, b.layers, strict=True)
-        return all(np.array_equal(x, y) for pa, pb in pairs for x, y in zip(pa, pb, strict=True))
-
-    m = TLAC(
-        gym.make("CartPole-v1"),
-        teachers=[lambda obs: int(obs[2] > 0)],
-        seed=0,
-        solo_budget=1.0,
-        n_steps=512,
-        batch_size=64,
-    )
+    m = _solo_cartpole(n_steps=512)
     asked_untrained = []
 
     def untrained_windows_only() -> bool:  # an untrained student's lucky windows
@@ -352,10 +355,10 @@ def test_the_weights_a_model_starts_from_are_never_the_kept_student():
     m.solo.latest_is_worth_deploying = lambda: True  # from now on every window qualifies
     m._deploy_if_worth(True)
     after_one = m.nets.snapshot_student(512)
-    assert same(m.deployed, after_one)
+    assert _same_student(m.deployed, after_one)
     m.learn(512, reset_num_timesteps=False, progress_bar=False)
-    assert m.deployed is m.collector and same(m.collector, after_one)
-    assert not same(m.deployed, m.nets.snapshot_student(1024))
+    assert m.deployed is m.collector and _same_student(m.collector, after_one)
+    assert not _same_student(m.deployed, m.nets.snapshot_student(1024))
 
 
 def _box_model(**settings):
@@ -386,27 +389,12 @@ def test_the_kept_student_is_what_predict_deploys_and_save_keeps(tmp_path):
     assert loaded.deployed.num_timesteps == model.deployed.num_timesteps == 64
     assert np.array_equal(loaded.predict(obs, deterministic=True)[0], before)
     # solo episodes deploy a student by themselves
-    m = TLAC(
-        gym.make("CartPole-v1"),
-        teachers=[lambda obs: int(obs[2] > 0)],
-        seed=0,
-        solo_budget=1.0,  # every episode solo: the window of 20 fills within 2000 steps
-        n_steps=16,
-        batch_size=16,
-    )
+    m = _solo_cartpole(n_steps=16)  # every episode solo: the window of 20 fills in 2000 steps
     m.learn(2000, progress_bar=False)
     assert len(m.solo.solo_returns) == m.solo.solo_returns.maxlen
     assert m.deployed is not None
-    # the end of learn deploys the live student if its latest window qualifies, else keeps
-    m = TLAC(  # 16-step rollouts: each learn(16) below is one rollout
-        gym.make("CartPole-v1"),
-        teachers=[lambda obs: int(obs[2] > 0)],
-        seed=0,
-        solo_budget=1.0,
-        n_steps=16,
-        batch_size=16,
-    )
-    m.learn(2000, progress_bar=False)
+    # the end of learn deploys the student that collected the last rollout if the latest
+    # window qualifies, else keeps the one it had (16-step rollouts: each learn(16) is one)
     m.solo.solo_returns.extend([0.0] * 20)
     m.solo.best_solo, kept = 100.0, m.deployed
     m.learn(16, reset_num_timesteps=False)
