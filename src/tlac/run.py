@@ -869,7 +869,7 @@ def eval_metrics(row: Sequence[Any], deploy: str) -> dict[str, float]:
     if deploy == "choose":
         metrics["eval/greedy_mean"] = float(row[5])
         metrics["eval/sampled_mean"] = float(row[6])
-        metrics["eval/deploys_sampled"] = float(row[4] == "sampled")
+        metrics["eval/deploys_sampled"] = float(row_mode(row, deploy) == "sampled")
     elif deploy == "sampled":
         metrics["eval/sampled_mean"] = float(row[1])
     return metrics
