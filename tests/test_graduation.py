@@ -669,6 +669,40 @@ def test_a_teacher_with_nothing_to_copy_does_not_count_as_help():
     assert not solo.no_teacher_helps and solo.weaning == 0.0
 
 
+def test_a_helper_with_nothing_to_say_is_measured_before_the_copy_opens():
+    """Issue 63 (Pendulum, adversarial + random, seed 5): a random teacher's led returns beat
+    the untrained student's, so it counted as help until its advice was measured, and the
+    update that measured it had already set the copy's weight: one whole update copied the
+    adversarial teacher beside it (the student's mean action at 1.5 of 2 after it, -1421 alone
+    at the end where PPO alone reaches -986). Hand-checked: untrained student -1400 (5 solo
+    episodes); teacher 0 (always full throttle one way) leads -1500 three times, the random
+    teacher -1000, -1050, -1100 (-1050 - 2 x 28.9 > -1400: help, but unmeasured). Weighted
+    before the measurement, the copy is whole (competence 0 against -1050); measured first, the
+    random teacher says nothing, no teacher helps and the update copies nothing."""
+    box = gym.spaces.Box(-2.0, 2.0, (1,), np.float32)
+    one_way = as_teacher(lambda obs: np.float32([2.0]), box)
+    model = TLAC(
+        gym.make("Pendulum-v1"),
+        teachers=[one_way, RandomTeacher(box, seed=1)],
+        seed=0,
+        n_steps=64,
+        batch_size=32,
+    )
+    solo = model.solo
+    solo.active[:] = True
+    for _ in range(5):
+        solo.end(0, -1400.0)
+    solo.active[:] = False
+    for teacher, episode_return in [(0, -1500.0)] * 3 + [(1, -1000.0), (1, -1050.0), (1, -1100.0)]:
+        solo.leader[0] = teacher
+        solo.end(0, episode_return)
+    assert not solo.auditioning and solo.unmeasured_helpers.tolist() == [False, True]
+    assert solo.weaning == 0.0  # the random teacher's returns alone would open a whole copy
+    out = model.update(model.collect(), 1.0)
+    assert solo.says_nothing.tolist() == [False, True] and solo.no_teacher_helps
+    assert "train/imitation_loss" not in out and len(model.advice_buffer) == 0
+
+
 def test_advice_buffer_wraps_and_samples_aligned_rows():
     buf = AdviceBuffer(capacity=5, obs_dim=1, advice_shape=(2,), advice_dtype=torch.int64)
     for start in range(0, 12, 4):

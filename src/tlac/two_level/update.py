@@ -38,27 +38,32 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
     data = ro.flat()
     n = data["obs"].shape[0]
     has_advice = bool(model.advice_buffer)
+    buffer, teachers = model.advice_buffer, model.teachers
+    teacher_obs = data["obs"] if unwrap_vec_normalize(model.env) is None else data["teacher_obs"]
+    # a teacher whose led episodes show help but whose advice was never asked is asked once,
+    # copied or not, and BEFORE the copy's weight is set: a teacher with nothing to copy must
+    # not be trusted for its returns alone (graduation.SoloEpisodes.no_teacher_helps). Set
+    # first, a random teacher's led returns opened the copy of an adversarial one beside it for
+    # a whole update (Pendulum seed 5: the student's mean action at 1.5 of 2 after it, and
+    # -1421 alone at the end where PPO alone reaches -986; issue 63)
+    measured = None
+    if (
+        buffer is not None
+        and not model.limited_advice
+        and model.solo is not None
+        and bool(model.solo.unmeasured_helpers.any())
+    ):
+        measured = advice_on(nets, teachers, teacher_obs)
+        record_information(model, nets.advice_information(measured))
     # graduation (docs/graduation.md): what every teacher advises in every collected state,
     # imitated by the low level in proportion to the high level's trust in that teacher
     distill = model.distill_schedule(progress_remaining)
     if cfg.wean_imitation and model.solo is not None:
         distill *= 1.0 - model.solo.weaning
-    buffer, teachers = model.advice_buffer, model.teachers
     imitates = buffer is not None and distill > 0
-    teacher_obs = data["obs"] if unwrap_vec_normalize(model.env) is None else data["teacher_obs"]
     silent = None  # low_level_data silent: the states where no teacher says anything
-    # a teacher whose led episodes show help but whose advice was never asked is asked once,
-    # copied or not: a teacher with nothing to copy must not be trusted for its returns alone
-    # (graduation.SoloEpisodes.no_teacher_helps)
-    measures = (
-        not imitates
-        and buffer is not None
-        and not model.limited_advice
-        and model.solo is not None
-        and bool(model.solo.unmeasured_helpers.any())
-    )
     if model.advice is not None and not model.limited_advice:  # counted only
-        model.advice.count_unlimited(data["choices"].numpy(), imitates or measures)
+        model.advice.count_unlimited(data["choices"].numpy(), imitates or measured is not None)
     if buffer is not None and model.limited_advice and not imitates:
         # nothing is copied now (the audition, a weaned copy): no label is asked, but the
         # answers already paid for (the teachers that acted) are kept, at no cost
@@ -74,13 +79,13 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
         note_wasted_asks(model, data, information, labelled)
         if cfg.low_level_data == "silent":  # where no teacher asked says anything
             silent = losses.silent_information(information * labelled.T)
-    elif imitates or measures:
-        advice = advice_on(nets, teachers, teacher_obs)
-        if imitates:  # (only measured: nothing stored)
-            buffer.add(data["obs"], advice)
+    elif imitates:
+        advice = advice_on(nets, teachers, teacher_obs) if measured is None else measured
+        buffer.add(data["obs"], advice)
         information = nets.advice_information(advice)
-        record_information(model, information)
-        if imitates and cfg.low_level_data == "silent":
+        if measured is None:  # (recorded above where it was measured)
+            record_information(model, information)
+        if cfg.low_level_data == "silent":
             silent = losses.silent_information(information)
     k, solo = model.n_teachers, model.solo is not None
     rows = row_weights(cfg, data, k, model.train_high, solo, has_advice, silent, model.greedy_solo)
