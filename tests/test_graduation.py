@@ -703,62 +703,6 @@ def test_a_helper_with_nothing_to_say_is_measured_before_the_copy_opens():
     assert "train/imitation_loss" not in out and len(model.advice_buffer) == 0
 
 
-def test_a_teacher_whose_episodes_show_no_help_is_not_copied_beside_one_whose_do():
-    """Issue 63: a copy opened by one teacher's help copied every teacher by the high level's
-    trust, near uniform at first; beside the near-optimal SAC actor its mirror image took half
-    of it (Pendulum seed 0: -303.2, beside a random teacher -149.9). Hand-checked: untrained
-    student -500; teacher 0 leads -300, -300, -200 (-383.3 - 2 x 49.5 > -500: help), teacher 1
-    -600 three times (none): only teacher 1 is left out, and taken back once its led episodes
-    show help (eighteen more at -100: mean -185.7, se 47.0). Then, in an update: teachers that
-    say +1 and -1 everywhere, equally trusted; the copy moves the student's mean action toward
-    +1, where without the gate the two pulls cancel."""
-    solo = SoloEpisodes(1, budget=0.2, seed=0, min_episodes=1, n_teachers=2, teacher_share=0.3)
-    assert solo.shown_no_help.tolist() == [False, False]  # nothing judged yet
-    solo.active[:] = True
-    solo.end(0, -500.0)
-    solo.active[:] = False
-    for teacher, episode_return in [(0, -300.0), (0, -300.0), (0, -200.0)] + [(1, -600.0)] * 3:
-        solo.leader[0] = teacher
-        solo.end(0, episode_return)
-    assert solo.shown_no_help.tolist() == [False, True]
-    solo.leader[0] = 1
-    for _ in range(18):
-        solo.end(0, -100.0)
-    assert solo.shown_no_help.tolist() == [False, False]
-    no_led = SoloEpisodes(1, budget=0.2, seed=0, min_episodes=1, n_teachers=2)
-    assert no_led.shown_no_help.tolist() == [False, False]  # no teacher-led episodes: no gate
-
-    def mean_action_after_one_update(gate: bool) -> float:
-        box = gym.spaces.Box(-2.0, 2.0, (1,), np.float32)
-        plus = as_teacher(lambda obs: np.float32([1.0]), box)
-        minus = as_teacher(lambda obs: np.float32([-1.0]), box)
-        model = TLAC(
-            gym.make("Pendulum-v1"),
-            teachers=[plus, minus],
-            seed=0,
-            n_steps=64,
-            batch_size=32,
-            learning_rate=3e-3,
-        )
-        solo = model.solo
-        solo.active[:] = True
-        for _ in range(5):
-            solo.end(0, -1400.0)
-        solo.active[:] = False
-        second = -1500.0 if gate else -1000.0  # the minus teacher's led episodes show help or not
-        for teacher, episode_return in [(0, -1000.0)] * 3 + [(1, second)] * 3:
-            solo.leader[0] = teacher
-            solo.end(0, episode_return)
-        assert solo.shown_no_help.tolist() == [False, gate]
-        ro = model.collect()
-        model.update(ro, 1.0)
-        with torch.no_grad():
-            return float(model.nets.heads(model.nets.update_rows(ro.flat()["obs"]))[1].mean())
-
-    assert mean_action_after_one_update(gate=True) > 0.3
-    assert abs(mean_action_after_one_update(gate=False)) < 0.1
-
-
 def test_advice_buffer_wraps_and_samples_aligned_rows():
     buf = AdviceBuffer(capacity=5, obs_dim=1, advice_shape=(2,), advice_dtype=torch.int64)
     for start in range(0, 12, 4):

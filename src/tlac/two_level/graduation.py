@@ -347,21 +347,6 @@ class SoloEpisodes:
         return asked & (mean <= SAYS_NOTHING)
 
     @property
-    def shown_no_help(self) -> np.ndarray:
-        """``(n_teachers,)`` bools: teachers judged (``MIN_LED_EPISODES`` led episodes) whose
-        led episodes show no help (:meth:`_shows_help`); the copy leaves them out while another
-        teacher's help opens it (tlac.two_level.update), and takes them back if theirs shows
-        later. Nothing where no episode is teacher-led, and never a teacher that leads only when
-        named from outside (:attr:`outside`: a person). Before, a copy opened by one teacher's
-        help copied every teacher by the high level's trust, near uniform at first: beside the
-        near-optimal SAC actor (-137.3), its mirror image took half the copy and the student
-        ended at -303.2 (Pendulum, seed 0; beside a random teacher, -149.9)."""
-        if self.teacher_share <= 0 or not np.isfinite(self.untrained):
-            return np.zeros(len(self.led_counts), dtype=bool)
-        judged = (self.led_counts >= MIN_LED_EPISODES) & ~self.outside
-        return judged & ~self._shows_help()
-
-    @property
     def unmeasured_helpers(self) -> np.ndarray:
         """``(n_teachers,)`` bools: teachers whose led episodes show help but whose advice was
         never asked: the update asks them once (tlac.two_level.update), so that a teacher

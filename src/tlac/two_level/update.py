@@ -99,15 +99,6 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
         replay = fast.replay_plan(
             nets, buffer, cfg.imitation_batch_size, batches, model._replay_generator
         )
-        if model.solo is not None and model.solo.shown_no_help.any():
-            # a teacher whose own episodes show no help is not copied beside one whose do
-            # (graduation.SoloEpisodes.shown_no_help): its information 0, so its trust in each
-            # replayed state goes to the others (losses.reweighted_trust)
-            copied = torch.as_tensor(~model.solo.shown_no_help, dtype=replay.information.dtype)
-            shape = (-1,) + (1,) * (replay.information.dim() - 1)
-            replay = dataclasses.replace(
-                replay, information=replay.information * copied.view(shape)
-            )
     cols = fast.narrowed_columns(nets, model.optimizer, cfg.update_rule, x, replay)
     if cols is not None:  # the first layer on the input columns this update activates
         x = x[:, cols]
