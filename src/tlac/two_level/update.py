@@ -54,7 +54,8 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
         and bool(model.solo.unmeasured_helpers.any())
     ):
         measured = advice_on(nets, teachers, teacher_obs)
-        record_information(model, nets.advice_information(measured))
+        measured_information = nets.advice_information(measured)
+        record_information(model, measured_information)
     # graduation (docs/graduation.md): what every teacher advises in every collected state,
     # imitated by the low level in proportion to the high level's trust in that teacher
     distill = model.distill_schedule(progress_remaining)
@@ -80,11 +81,13 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
         if cfg.low_level_data == "silent":  # where no teacher asked says anything
             silent = losses.silent_information(information * labelled.T)
     elif imitates:
-        advice = advice_on(nets, teachers, teacher_obs) if measured is None else measured
-        buffer.add(data["obs"], advice)
-        information = nets.advice_information(advice)
-        if measured is None:  # (recorded above where it was measured)
+        if measured is None:
+            advice = advice_on(nets, teachers, teacher_obs)
+            information = nets.advice_information(advice)
             record_information(model, information)
+        else:  # asked and recorded above
+            advice, information = measured, measured_information
+        buffer.add(data["obs"], advice)
         if cfg.low_level_data == "silent":
             silent = losses.silent_information(information)
     k, solo = model.n_teachers, model.solo is not None
