@@ -703,6 +703,79 @@ def test_a_helper_with_nothing_to_say_is_measured_before_the_copy_opens():
     assert "train/imitation_loss" not in out and len(model.advice_buffer) == 0
 
 
+def test_a_teacher_whose_episodes_show_harm_is_not_copied_beside_one_whose_show_help():
+    """Issue 63: a copy opened by one teacher's help copied every teacher by the high level's
+    trust, near uniform at first; beside the near-optimal SAC actor its mirror image (led
+    -1525 against the untrained student's -1100) took half of it (Pendulum, 5 seeds: -243.0,
+    beside a random teacher -151.9). Hand-checked: untrained student -500; teacher 0 leads
+    -300, -300, -200 (help), teacher 1 -600 three times (-600 + 0 < -500: harm), teacher 2
+    -500, -400, -600 (mean -500, se 47.1 x 2: neither). Only teacher 1 is left out, and taken
+    back once its led episodes no longer show harm (eighteen more at -100: mean -171.4). An
+    untrained level measured on five spread episodes needs a larger gap. Then, in an update: teachers that say +1 and -1 everywhere, equally trusted; the copy
+    moves the student's mean action toward +1, where without the gate the two pulls cancel."""
+    solo = SoloEpisodes(1, budget=0.2, seed=0, min_episodes=1, n_teachers=3, teacher_share=0.3)
+    assert solo.shown_harm.tolist() == [False, False, False]  # nothing judged yet
+    solo.active[:] = True
+    solo.end(0, -500.0)
+    solo.active[:] = False
+    led = [(0, -300.0), (0, -300.0), (0, -200.0), (1, -600.0), (1, -600.0), (1, -600.0)]
+    for teacher, episode_return in [*led, (2, -500.0), (2, -400.0), (2, -600.0)]:
+        solo.leader[0] = teacher
+        solo.end(0, episode_return)
+    assert solo.shown_harm.tolist() == [False, True, False]
+    solo.outside[1] = True  # a person is never judged
+    assert solo.shown_harm.tolist() == [False, False, False]
+    solo.outside[1] = False
+    solo.leader[0] = 1
+    for _ in range(18):
+        solo.end(0, -100.0)
+    assert solo.shown_harm.tolist() == [False, False, False]
+    # the untrained level's own error counts: four episodes at -500 and one at -429 (mean
+    # -485.8, se 12.7) are no evidence that a teacher at -500 (0 + 14.2 < 2 x 12.7) harms
+    sparse = SoloEpisodes(1, budget=0.2, seed=0, min_episodes=5, n_teachers=1, teacher_share=0.3)
+    sparse.active[:] = True
+    for episode_return in [-500.0] * 4 + [-429.0]:
+        sparse.end(0, episode_return)
+    sparse.active[:] = False
+    sparse.leader[0] = 0
+    for _ in range(3):
+        sparse.end(0, -500.0)
+    assert round(sparse.untrained_se, 1) == 12.7
+    assert sparse.shown_harm.tolist() == [False]
+    sparse.untrained_se = 0.0  # the one-sample test would call it harm
+    assert sparse.shown_harm.tolist() == [True]
+
+    def mean_action_after_one_update(gate: bool) -> float:
+        box = gym.spaces.Box(-2.0, 2.0, (1,), np.float32)
+        plus = as_teacher(lambda obs: np.float32([1.0]), box)
+        minus = as_teacher(lambda obs: np.float32([-1.0]), box)
+        model = TLAC(
+            gym.make("Pendulum-v1"),
+            teachers=[plus, minus],
+            seed=0,
+            n_steps=64,
+            batch_size=32,
+            learning_rate=3e-3,
+        )
+        solo = model.solo
+        solo.active[:] = True
+        for _ in range(5):
+            solo.end(0, -1400.0)
+        solo.active[:] = False
+        second = -1500.0 if gate else -1400.0  # the minus teacher's led episodes: harm or not
+        for teacher, episode_return in [(0, -1000.0)] * 3 + [(1, second)] * 3:
+            solo.leader[0] = teacher
+            solo.end(0, episode_return)
+        assert solo.shown_harm.tolist() == [False, gate]
+        ro = model.collect()
+        model.update(ro, 1.0)
+        with torch.no_grad():
+            return float(model.nets.heads(model.nets.update_rows(ro.flat()["obs"]))[1].mean())
+
+    assert mean_action_after_one_update(gate=True) > 0.3
+    assert abs(mean_action_after_one_update(gate=False)) < 0.1
+
+
 def test_advice_buffer_wraps_and_samples_aligned_rows():
     buf = AdviceBuffer(capacity=5, obs_dim=1, advice_shape=(2,), advice_dtype=torch.int64)
     for start in range(0, 12, 4):

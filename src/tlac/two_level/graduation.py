@@ -26,6 +26,7 @@ the latest: if assisted episodes get worse, that must not read as a competent st
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -88,9 +89,45 @@ def shows_help(led_sum: float, led_square_sum: float, led_count: int, floor: flo
     >>> shows_help(-2950.0, 1_452_500.0, 6, floor=-500.0)  # five -500s and one -450: se 7.6
     False
     """
+    low, _ = led_interval(led_sum, led_square_sum, led_count)
+    return bool(low > floor)
+
+
+def shows_harm(
+    led_sum: float, led_square_sum: float, led_count: int, floor: float, floor_se: float
+) -> bool:
+    """Whether a teacher's led episodes (``led_count`` returns, their sum and sum of squares)
+    show a return BELOW ``floor`` (the untrained student's, with standard error ``floor_se``)
+    by more than ``HELP_MARGIN`` standard errors of the difference: following it does worse
+    than a student that has learned nothing (the mirror image of a good policy), where a random
+    or idle teacher sits at that level. The untrained level's own error counts here: on
+    Acrobot an untrained student that swung up once in its first five episodes (-485.8) is no
+    evidence that a teacher at -500 harms.
+
+    >>> shows_harm(-4500.0, 6_750_000.0, 3, floor=-1100.0, floor_se=90.0)   # three at -1500
+    True
+    >>> shows_harm(-1500.0, 750_000.0, 3, floor=-500.0, floor_se=0.0)   # at the floor: no harm
+    False
+    >>> shows_harm(-1500.0, 750_000.0, 3, floor=-485.8, floor_se=12.7)   # 14.2 < 2 x 12.7
+    False
+    """
+    mean = led_sum / led_count
+    _, high = led_interval(led_sum, led_square_sum, led_count)
+    led_se = (high - mean) / HELP_MARGIN
+    return bool(mean - floor < -HELP_MARGIN * np.hypot(led_se, floor_se))
+
+
+def led_interval(led_sum: float, led_square_sum: float, led_count: int) -> tuple[float, float]:
+    """The mean of ``led_count`` led returns (their sum and sum of squares) minus and plus
+    ``HELP_MARGIN`` standard errors.
+
+    >>> [round(x, 1) for x in led_interval(-1200.0, 500_000.0, 3)]   # -500, -400, -300
+    [-494.3, -305.7]
+    """
     mean = led_sum / led_count
     variance = max(led_square_sum / led_count - mean * mean, 0.0)
-    return bool(mean - HELP_MARGIN * np.sqrt(variance / led_count) > floor)
+    margin = HELP_MARGIN * float(np.sqrt(variance / led_count))
+    return mean - margin, mean + margin
 
 
 HANDOVER_ENTROPY = 0.05
@@ -286,6 +323,7 @@ class SoloEpisodes:
         # the mean of the first min_episodes solo returns: the untrained student's level, the
         # one a teacher's led episodes must beat to show help (_shows_help)
         self.untrained = np.inf
+        self.untrained_se = 0.0  # the standard error of that mean (:attr:`shown_harm`)
         self.best_assisted = -np.inf
         self.best_solo = -np.inf  # the best mean of a full window of solo returns so far
         self.solo_episodes = 0  # solo episodes ended so far
@@ -363,15 +401,42 @@ class SoloEpisodes:
         beat a window at -1667 (seed 3), were copied, and held the student near -1600 to the
         end (-1767.5 where PPO alone reaches -1015.8; judged against the untrained student's
         -1390, -989.6)."""
+        return self._judged_by(
+            lambda total, squares, count: shows_help(total, squares, count, self.untrained)
+        )
+
+    @property
+    def shown_harm(self) -> np.ndarray:
+        """``(n_teachers,)`` bools: judged teachers whose led episodes are below the untrained
+        student's level (:func:`shows_harm`); never one that leads only when named from outside
+        (:attr:`outside`: a person). The update leaves them out of the copy
+        (tlac.two_level.update): a copy that one teacher's help opens takes every teacher by
+        the high level's trust, near uniform at first, and beside the near-optimal SAC actor
+        (-137.3) its mirror image (led -1525 against the untrained student's -1100) took half
+        of it: the student ended at -243.0 over 5 seeds where the actor beside a random
+        teacher gives -151.9 (Pendulum; results/teacher-sweep/NOTES.md). Harm, not the
+        absence of help: a random plain function in a discrete space reads as a point mass, so
+        its labels are copied, and they are exploration the suites were measured with."""
+        return (
+            self._judged_by(
+                lambda total, squares, count: shows_harm(
+                    total, squares, count, self.untrained, self.untrained_se
+                )
+            )
+            & ~self.outside
+        )
+
+    def _judged_by(self, judge: Callable[[float, float, int], bool]) -> np.ndarray:
+        """``(n_teachers,)`` bools: ``judge`` of every teacher's led returns (their sum, sum of
+        squares and count), for teachers with ``MIN_LED_EPISODES`` led episodes or more; False
+        for the others and before the untrained student's level is measured."""
         out = np.zeros(len(self.led_counts), dtype=bool)
         if not np.isfinite(self.untrained):
             return out
         for k, (total, squares, count) in enumerate(
             zip(self.led_sums, self.led_squares, self.led_counts, strict=True)
         ):
-            out[k] = count >= MIN_LED_EPISODES and shows_help(
-                total, squares, int(count), self.untrained
-            )
+            out[k] = count >= MIN_LED_EPISODES and judge(total, squares, int(count))
         return out
 
     @property
@@ -494,6 +559,8 @@ class SoloEpisodes:
                 self.floor = min(self.floor, float(np.mean(self.solo_returns)))
                 if not np.isfinite(self.untrained):
                     self.untrained = float(np.mean(self.solo_returns))
+                    spread = float(np.std(self.solo_returns))
+                    self.untrained_se = spread / float(np.sqrt(len(self.solo_returns)))
             return self.latest_is_worth_deploying()
         else:
             teacher = self.leader[env_index]

@@ -22,6 +22,8 @@ from tlac.two_level.steps import gradient_step, gradient_step_per_level
 from tlac.two_level.summary import UpdateLog, summarize_update
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from tlac.algorithms.rollout import Rollout
 
 Heads = tuple[torch.Tensor, torch.Tensor, torch.Tensor]  # high logits, low output, latent
@@ -102,6 +104,8 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
         replay = fast.replay_plan(
             nets, buffer, cfg.imitation_batch_size, batches, model._replay_generator
         )
+        if model.solo is not None and model.solo.shown_harm.any():
+            replay = without_harmful(replay, model.solo.shown_harm)
     cols = fast.narrowed_columns(nets, model.optimizer, cfg.update_rule, x, replay)
     if cols is not None:  # the first layer on the input columns this update activates
         x = x[:, cols]
@@ -135,6 +139,16 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
         for lv, run in zip(["low", "high"], running.tolist(), strict=False):
             out[f"train/stopped_{lv}"] = float(not run)
     return out
+
+
+def without_harmful(replay: fast.ReplayPlan, harmful: np.ndarray) -> fast.ReplayPlan:
+    """``replay`` (fast.replay_plan) with the information of the ``harmful`` teachers
+    (graduation.SoloEpisodes.shown_harm) at 0 in every replayed state, so that their trust
+    there goes to the others (losses.reweighted_trust, losses.informative_trust) and, where
+    no other teacher says anything, nothing is copied."""
+    copied = torch.as_tensor(~harmful, dtype=replay.information.dtype)
+    shape = (-1,) + (1,) * (replay.information.dim() - 1)
+    return dataclasses.replace(replay, information=replay.information * copied.view(shape))
 
 
 def judges_asks(model: Any) -> bool:
