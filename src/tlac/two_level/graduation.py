@@ -153,12 +153,7 @@ def entropy_coefs(
 ) -> torch.Tensor:
     """``[low, high]`` entropy coefficients of a gradient step: the settings' (``settings``),
     plus the hand-over bonus on the low level under weaned imitation (``handover``: discrete
-    actions, with solo episodes ``solo``). None once no teacher helps
-    (:attr:`SoloEpisodes.no_teacher_helps`): the bonus gives back the exploration a copy took,
-    and nothing is copied then. Before, weaning 1 gave such a student the full 0.05, PPO's own
-    learning under an entropy bonus: on Acrobot beside the untrained network and a random
-    teacher (seed 4) its sampled returns were still at -500 after 45,000 steps, without it at
-    -191 after 30,720.
+    actions, with solo episodes ``solo``).
 
     >>> entropy_coefs(torch.tensor([0.0, 0.01]), None, False).tolist()
     [0.0, 0.009999999776482582]
@@ -166,7 +161,7 @@ def entropy_coefs(
     if not handover:
         return settings
     assert solo is not None
-    bonus = 0.0 if solo.no_teacher_helps else handover_entropy_coef(solo.weaning)
+    bonus = handover_entropy_coef(solo.weaning)
     return settings + torch.tensor([bonus, 0.0])
 
 
