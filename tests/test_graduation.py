@@ -776,6 +776,23 @@ def test_a_teacher_whose_episodes_show_harm_is_not_copied_beside_one_whose_show_
     assert abs(mean_action_after_one_update(gate=False)) < 0.1
 
 
+def test_a_checkpoint_saved_before_the_harm_gate_resumes_without_it():
+    """A training state without ``untrained_se`` (saved before the harm gate) resumes with the
+    gate off (an infinite error), not with the test against the untrained mean alone."""
+    from tlac.two_level.persistence import get_training_state, set_training_state
+
+    model = TLAC(gym.make("CartPole-v1"), teachers=[lambda obs: 0], seed=0, n_steps=64)
+    state = get_training_state(model)
+    set_training_state(model, state)
+    assert model.solo.untrained_se == 0.0
+    del state["solo"]["untrained_se"]
+    set_training_state(model, state)
+    assert model.solo.untrained_se == float("inf")
+    model.solo.untrained, model.solo.led_counts[:] = -500.0, 3
+    model.solo.led_sums[:], model.solo.led_squares[:] = -3000.0, 3_000_000.0  # three at -1000
+    assert model.solo.shown_harm.tolist() == [False]
+
+
 def test_advice_buffer_wraps_and_samples_aligned_rows():
     buf = AdviceBuffer(capacity=5, obs_dim=1, advice_shape=(2,), advice_dtype=torch.int64)
     for start in range(0, 12, 4):

@@ -401,6 +401,8 @@ def set_training_state(model: Any, state: dict[str, Any]) -> None:
         raise ConfigError("the checkpoint's solo-episode statistics do not match the settings")
     if model.solo is not None:
         restore_attributes(model.solo, state["solo"])
+        if "untrained_se" not in state["solo"]:  # saved before the harm gate: it stays off
+            model.solo.untrained_se = float("inf")
     if state["advice"] is not None and model.advice_buffer is not None:
         buf, saved = model.advice_buffer, state["advice"]
         if tuple(saved["advice"].shape[1:]) != tuple(buf.advice.shape[1:]):

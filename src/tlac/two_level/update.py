@@ -60,6 +60,8 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
         record_information(model, measured_information)
     # graduation (docs/graduation.md): what every teacher advises in every collected state,
     # imitated by the low level in proportion to the high level's trust in that teacher
+    # teachers whose led episodes show harm: left out of the copy (left_in)
+    harmful = None if model.solo is None else model.solo.shown_harm
     distill = model.distill_schedule(progress_remaining)
     if cfg.wean_imitation and model.solo is not None:
         distill *= 1.0 - model.solo.weaning
@@ -81,7 +83,7 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
         record_information(model, information, labelled.T)
         note_wasted_asks(model, data, information, labelled)
         if cfg.low_level_data == "silent":  # where no teacher asked says anything
-            silent = losses.silent_information(information * labelled.T)
+            silent = losses.silent_information(left_in(information * labelled.T, harmful))
     elif imitates:
         if measured is None:
             advice = advice_on(nets, teachers, teacher_obs)
@@ -91,7 +93,7 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
             advice, information = measured, measured_information
         buffer.add(data["obs"], advice)
         if cfg.low_level_data == "silent":
-            silent = losses.silent_information(information)
+            silent = losses.silent_information(left_in(information, harmful))
     k, solo = model.n_teachers, model.solo is not None
     rows = row_weights(cfg, data, k, model.train_high, solo, has_advice, silent, model.greedy_solo)
     # what every minibatch reads, prepared once: the rollout's rows as the networks see
@@ -104,8 +106,8 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
         replay = fast.replay_plan(
             nets, buffer, cfg.imitation_batch_size, batches, model._replay_generator
         )
-        if model.solo is not None and model.solo.shown_harm.any():
-            replay = without_harmful(replay, model.solo.shown_harm)
+        if harmful is not None and harmful.any():
+            replay = dataclasses.replace(replay, information=left_in(replay.information, harmful))
     cols = fast.narrowed_columns(nets, model.optimizer, cfg.update_rule, x, replay)
     if cols is not None:  # the first layer on the input columns this update activates
         x = x[:, cols]
@@ -141,14 +143,16 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
     return out
 
 
-def without_harmful(replay: fast.ReplayPlan, harmful: np.ndarray) -> fast.ReplayPlan:
-    """``replay`` (fast.replay_plan) with the information of the ``harmful`` teachers
-    (graduation.SoloEpisodes.shown_harm) at 0 in every replayed state, so that their trust
-    there goes to the others (losses.reweighted_trust, losses.informative_trust) and, where
-    no other teacher says anything, nothing is copied."""
-    copied = torch.as_tensor(~harmful, dtype=replay.information.dtype)
-    shape = (-1,) + (1,) * (replay.information.dim() - 1)
-    return dataclasses.replace(replay, information=replay.information * copied.view(shape))
+def left_in(information: torch.Tensor, harmful: np.ndarray | None) -> torch.Tensor:
+    """``information`` ``(n_teachers, ...)`` with the rows of the ``harmful`` teachers
+    (graduation.SoloEpisodes.shown_harm) at 0: in the replayed states their trust goes to the
+    others (losses.reweighted_trust, losses.informative_trust) and, where no other teacher says
+    anything, nothing is copied; with ``low_level_data: silent`` such a state counts as silent,
+    so the student's own policy gradient learns there."""
+    if harmful is None or not harmful.any():
+        return information
+    kept = torch.as_tensor(~harmful, dtype=information.dtype)
+    return information * kept.view((-1,) + (1,) * (information.dim() - 1))
 
 
 def judges_asks(model: Any) -> bool:
