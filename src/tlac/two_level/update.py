@@ -58,10 +58,10 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
         measured = advice_on(nets, teachers, teacher_obs)
         measured_information = nets.advice_information(measured)
         record_information(model, measured_information)
-    # graduation (docs/graduation.md): what every teacher advises in every collected state,
-    # imitated by the low level in proportion to the high level's trust in that teacher
     # teachers whose led episodes show harm: left out of the copy (left_in)
     harmful = None if model.solo is None else model.solo.shown_harm
+    # graduation (docs/graduation.md): what every teacher advises in every collected state,
+    # imitated by the low level in proportion to the high level's trust in that teacher
     distill = model.distill_schedule(progress_remaining)
     if cfg.wean_imitation and model.solo is not None:
         distill *= 1.0 - model.solo.weaning
