@@ -1,7 +1,7 @@
 """A teacher set the sweep does not hold: the sweep's best teacher beside its own mirror image (the
-adversarial teacher), with TL-AC's default (issue 63: a teacher whose own episodes show no help
-must not be copied beside one whose do; results/teacher-sweep/NOTES.md, "A good teacher beside
-its mirror image").
+adversarial teacher), with TL-AC's default (issue 63: a teacher whose own episodes show harm
+must not be copied beside one whose show help; results/teacher-sweep/NOTES.md, "A good teacher
+beside its mirror image" and "A teacher that harms is left out of the copy").
 
 Trains ``TLAC(env, teachers=[q1, adversarial], seed=S)`` for the sweep's budget and scores the
 deployed student alone as the sweep does (benchmarks/teacher_sweep.deployed_alone), one JSON per

@@ -711,8 +711,9 @@ def test_a_teacher_whose_episodes_show_harm_is_not_copied_beside_one_whose_show_
     -300, -300, -200 (help), teacher 1 -600 three times (-600 + 0 < -500: harm), teacher 2
     -500, -400, -600 (mean -500, se 47.1 x 2: neither). Only teacher 1 is left out, and taken
     back once its led episodes no longer show harm (eighteen more at -100: mean -171.4). An
-    untrained level measured on five spread episodes needs a larger gap. Then, in an update: teachers that say +1 and -1 everywhere, equally trusted; the copy
-    moves the student's mean action toward +1, where without the gate the two pulls cancel."""
+    untrained level measured on five spread episodes needs a larger gap. Then, in an update:
+    teachers that say +1 and -1 everywhere, equally trusted; the copy moves the student's mean
+    action toward +1, where without the gate the two pulls cancel."""
     solo = SoloEpisodes(1, budget=0.2, seed=0, min_episodes=1, n_teachers=3, teacher_share=0.3)
     assert solo.shown_harm.tolist() == [False, False, False]  # nothing judged yet
     solo.active[:] = True

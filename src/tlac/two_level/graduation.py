@@ -89,8 +89,8 @@ def shows_help(led_sum: float, led_square_sum: float, led_count: int, floor: flo
     >>> shows_help(-2950.0, 1_452_500.0, 6, floor=-500.0)  # five -500s and one -450: se 7.6
     False
     """
-    low, _ = led_interval(led_sum, led_square_sum, led_count)
-    return bool(low > floor)
+    mean, se = led_mean_and_se(led_sum, led_square_sum, led_count)
+    return bool(mean - HELP_MARGIN * se > floor)
 
 
 def shows_harm(
@@ -111,23 +111,20 @@ def shows_harm(
     >>> shows_harm(-1500.0, 750_000.0, 3, floor=-485.8, floor_se=12.7)   # 14.2 < 2 x 12.7
     False
     """
-    mean = led_sum / led_count
-    _, high = led_interval(led_sum, led_square_sum, led_count)
-    led_se = (high - mean) / HELP_MARGIN
-    return bool(mean - floor < -HELP_MARGIN * np.hypot(led_se, floor_se))
+    mean, se = led_mean_and_se(led_sum, led_square_sum, led_count)
+    return bool(mean - floor < -HELP_MARGIN * np.hypot(se, floor_se))
 
 
-def led_interval(led_sum: float, led_square_sum: float, led_count: int) -> tuple[float, float]:
-    """The mean of ``led_count`` led returns (their sum and sum of squares) minus and plus
-    ``HELP_MARGIN`` standard errors.
+def led_mean_and_se(led_sum: float, led_square_sum: float, led_count: int) -> tuple[float, float]:
+    """The mean of ``led_count`` led returns (their sum and sum of squares) and its standard
+    error.
 
-    >>> [round(x, 1) for x in led_interval(-1200.0, 500_000.0, 3)]   # -500, -400, -300
-    [-494.3, -305.7]
+    >>> [round(x, 1) for x in led_mean_and_se(-1200.0, 500_000.0, 3)]   # -500, -400, -300
+    [-400.0, 47.1]
     """
     mean = led_sum / led_count
     variance = max(led_square_sum / led_count - mean * mean, 0.0)
-    margin = HELP_MARGIN * float(np.sqrt(variance / led_count))
-    return mean - margin, mean + margin
+    return mean, float(np.sqrt(variance / led_count))
 
 
 HANDOVER_ENTROPY = 0.05

@@ -106,8 +106,7 @@ def update(model: Any, ro: Rollout, progress_remaining: float) -> dict[str, floa
         replay = fast.replay_plan(
             nets, buffer, cfg.imitation_batch_size, batches, model._replay_generator
         )
-        if harmful is not None and harmful.any():
-            replay = dataclasses.replace(replay, information=left_in(replay.information, harmful))
+        replay = dataclasses.replace(replay, information=left_in(replay.information, harmful))
     cols = fast.narrowed_columns(nets, model.optimizer, cfg.update_rule, x, replay)
     if cols is not None:  # the first layer on the input columns this update activates
         x = x[:, cols]
