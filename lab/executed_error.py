@@ -66,7 +66,7 @@ def patch(tolerance: float, reach: float) -> None:
 
     original = networks.Networks.advice_nll
 
-    def advice_nll(self, low_out, latent, advice):  # noqa: ANN001, ANN202
+    def advice_nll(self, low_out, latent, advice):
         if self.discrete:
             return original(self, low_out, latent, advice)
         low = torch.as_tensor(self.action_space.low, dtype=torch.float32)
@@ -95,6 +95,7 @@ def main() -> None:
         runpy.run_path(str(ROOT / "benchmarks" / "user_envs.py"), run_name="__main__")
         return
     import teacher_sweep
+
     from tlac import TLAC
 
     env_id, case, seeds = args.args[0], args.args[1], [int(s) for s in args.args[2:]]
