@@ -240,6 +240,24 @@ def test_box_imitation_is_a_gaussian_of_a_tenth_of_the_half_width():
     assert nll.tolist() == [[pytest.approx(0.5), pytest.approx(0.0)]]
 
 
+def test_a_box_teacher_pushing_at_a_bound_is_copied_by_any_mean_beyond_it():
+    """Pendulum's box [-2, 2]: a teacher's 1.95 is within 5% of the half-width (0.1) of the bound,
+    so any mean above 1.95 executes what it means (the environment clips to 2) and costs nothing,
+    a mean of 1.75 costs 0.5 * (0.2 / 0.2)^2 = 0.5 nats; -1.95 the same below; an inner 1.85 is
+    copied as before, so 2.05 costs 0.5 * (0.2 / 0.2)^2 = 0.5. An unbounded box has no bound."""
+    model = TLAC(gym.make("Pendulum-v1"), teachers=[lambda obs: np.array([0.0], np.float32)])
+    low, high = model.nets.saturated
+    assert low.tolist() == [pytest.approx(-1.9)] and high.tolist() == [pytest.approx(1.9)]
+    mean = torch.tensor([[2.6], [1.75], [-3.0], [2.05]])
+    advice = torch.tensor([[[1.95], [1.95], [-1.95], [1.85]]])
+    nll = model.nets.advice_nll(mean, torch.zeros(4, 64), advice)
+    assert nll.tolist() == [[0.0, pytest.approx(0.5), 0.0, pytest.approx(0.5)]]
+    unbounded = gym.spaces.Box(-np.inf, np.inf, (1,), np.float32)
+    env = gym.wrappers.TransformAction(gym.make("Pendulum-v1"), lambda a: a, unbounded)
+    low, high = TLAC(env, teachers=[lambda obs: np.zeros(1, np.float32)]).nets.saturated
+    assert low.tolist() == [-np.inf] and high.tolist() == [np.inf]
+
+
 def test_solo_probability_keeps_the_expected_cost_within_budget():
     for c in np.linspace(0.0, 0.999, 50):
         p = solo_probability(float(c), 0.05)

@@ -229,19 +229,33 @@ def imitation_loss(neg_log_likelihoods: torch.Tensor, trust: torch.Tensor) -> to
 
 
 def scaled_squared_error(
-    mean: torch.Tensor, targets: torch.Tensor, half_width: torch.Tensor | None
+    mean: torch.Tensor,
+    targets: torch.Tensor,
+    half_width: torch.Tensor | None,
+    saturated: tuple[torch.Tensor, torch.Tensor] | None = None,
 ) -> torch.Tensor:
     """``(K, B)``: ``0.5 * mean_d ((mean - targets[k]) / half_width)^2`` for Box actions: the
     negative log-likelihood, up to a constant, of a unit-variance Gaussian in units of the
-    action box's half-width.
+    action box's half-width. With ``saturated`` ``(low, high)``, the error of the action the
+    environment executes (it clips actions to the box): a target at or above ``high`` is met by
+    any mean above it, one at or below ``low`` by any mean below it.
 
     >>> m = torch.tensor([[0.0, 1.0]])
     >>> t = torch.tensor([[[1.0, 1.0]], [[0.0, -1.0]]])
     >>> scaled_squared_error(m, t, torch.tensor([1.0, 2.0])).tolist()   # 0.5*(1+0)/2, 0.5*(0+1)/2
     [[0.25], [0.25]]
+    >>> saturated = (torch.tensor([-0.9, -0.9]), torch.tensor([0.9, 0.9]))
+    >>> m = torch.tensor([[1.5, 0.5]])   # past the first target (1.0, saturated), short of 1.0
+    >>> scaled_squared_error(m, t[:1], torch.tensor([1.0, 1.0]), saturated).tolist()  # (0+0.25)/4
+    [[0.0625]]
     """
+    error = mean.unsqueeze(0) - targets
+    if saturated is not None:
+        low, high = saturated
+        error = torch.where(targets >= high, error.clamp(max=0.0), error)
+        error = torch.where(targets <= low, error.clamp(min=0.0), error)
     scale = 1.0 if half_width is None else half_width
-    return 0.5 * (((mean.unsqueeze(0) - targets) / scale) ** 2).mean(-1)
+    return 0.5 * ((error / scale) ** 2).mean(-1)
 
 
 def value_loss(values: torch.Tensor, returns: torch.Tensor) -> torch.Tensor:

@@ -45,6 +45,14 @@ a Gaussian around the low level's mean with this fixed standard deviation, in un
 action box's half-width (imitation does not touch the exploration noise). 1.0 left Hopper's
 student alone at ~150: its imitation gradient was 100x weaker than at 0.1, far below the policy
 gradient's (results/graduation-notes.md)."""
+SATURATED = 0.05
+"""Box actions: a teacher's action within this share of the box's half-width from a bound pushes
+at that bound (a squashed actor, as SAC's tanh, comes near it but never reaches it), and any mean
+of the low level beyond the bound copies it (losses.scaled_squared_error with ``saturated``): the
+environment executes the bound either way. Fitted to the mean alone, the copy of Pendulum's
+near-optimal SAC actor fell short of the bound where the actor's push flips sign, and took one
+more swing in 8 episodes of 100 (results/teacher-sweep/NOTES.md, "The copy's error at the box's
+bounds")."""
 
 if TYPE_CHECKING:
     from tlac.two_level.config import TLACConfig
@@ -193,11 +201,20 @@ class Networks:
         self.params = params
         # Box actions: the imitation likelihood's standard deviation per action dimension
         self.imitation_scale: torch.Tensor | None = None
+        self.saturated: tuple[torch.Tensor, torch.Tensor] | None = None
         if not self.discrete:
             half = (action_space.high - action_space.low).astype(np.float64) / 2.0
-            half[~np.isfinite(half) | (half <= 0)] = 1.0  # unbounded boxes: unit scale
+            bounded = np.isfinite(half) & (half > 0)
+            half[~bounded] = 1.0  # unbounded boxes: unit scale, no bound to push at
             scale = IMITATION_STD * half.reshape(-1)
             self.imitation_scale = torch.as_tensor(scale, dtype=torch.float32)
+            margin = SATURATED * half
+            low = np.where(bounded, action_space.low + margin, -np.inf).reshape(-1)
+            high = np.where(bounded, action_space.high - margin, np.inf).reshape(-1)
+            self.saturated = (
+                torch.as_tensor(low, dtype=torch.float32),
+                torch.as_tensor(high, dtype=torch.float32),
+            )
 
     def update_rows(self, obs: torch.Tensor) -> torch.Tensor:
         """The rollout's rows as :meth:`heads` takes them, for all of an update's minibatches:
@@ -304,10 +321,10 @@ class Networks:
         Box: half the mean squared distance between the low level's mean and the teacher's
         action, in units of :data:`IMITATION_STD` times the action box's half-width: a
         fixed-variance Gaussian likelihood, so that imitation does not shrink the exploration
-        noise."""
+        noise; an action that pushes at a bound is met by any mean beyond it (:data:`SATURATED`)."""
         if self.discrete:
             return -(advice * torch.log_softmax(low_out, -1).unsqueeze(0)).sum(-1)
-        return losses.scaled_squared_error(low_out, advice, self.imitation_scale)
+        return losses.scaled_squared_error(low_out, advice, self.imitation_scale, self.saturated)
 
     def advice_information(self, advice: torch.Tensor) -> torch.Tensor:
         """``(n_teachers, n)``: how much each teacher's stored advice (tlac.two_level.labels.
