@@ -1,5 +1,7 @@
-"""The Box imitation error measured on the action the environment executes (issue 63; not adopted:
-results/teacher-sweep/NOTES.md, "The copy's error at the box's bounds").
+"""The Box imitation error measured on the action the environment executes (issue 63), as a patch:
+the probe that measured it on code without it (results/teacher-sweep/NOTES.md, "The copy's
+error at the box's bounds"); adopted since in cbd8f0f0 (``networks.SATURATED``, with ``reach``
+inf and ``tolerance`` 0.05), so on today's code the default ``--reach`` changes nothing.
 
 TL-AC's Box imitation term is the squared distance between the low level's mean and the
 teacher's action (tlac.two_level.losses.scaled_squared_error). The environment clips actions to
