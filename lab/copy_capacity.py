@@ -4,7 +4,7 @@ Gaussian action noise (sd 0.3), then of 50 of the fitted network's own episodes 
 labelled with the teacher's greedy action and fitted by mean squared error (Adam 1e-3, 20,000
 steps of 256 rows); each round's network scored greedily on the sweep's 30 evaluation episodes.
 It asks whether the sweep's shortfall on q 0.97 + random (the student alone -151.9 against the
-mark -146.9; results/teacher-sweep/NOTES.md, "The copy's capacity") is the network's:
+mark -146.9 before cbd8f0f0; results/teacher-sweep/NOTES.md, "The copy's capacity") is the network's:
 
     .venv/bin/python lab/copy_capacity.py
 """

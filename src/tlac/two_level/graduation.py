@@ -411,10 +411,10 @@ class SoloEpisodes:
         the high level's trust, near uniform at first, and beside the near-optimal SAC actor
         (-137.3) its mirror image (led -1525 against the untrained student's -1100) took half
         of it: the student ended at -243.0 over 5 seeds where the actor beside a random
-        teacher gives -151.9 (Pendulum; results/teacher-sweep/NOTES.md). Harm, not the
-        absence of help: a random plain function in a discrete space reads as a point mass, so
-        its labels are copied, and they are exploration the suites were measured with; a
-        random teacher plays about as an untrained student, so it is mostly left in (read as
+        teacher gave -151.9 (Pendulum, before cbd8f0f0; results/teacher-sweep/NOTES.md).
+        Harm, not the absence of help: a random plain function in a discrete space reads as a
+        point mass, so its labels are copied, and they are exploration the suites were measured
+        with; a random teacher plays about as an untrained student, so it is mostly left in (read as
         harm in 7.9% of CartPole's draws: lab/harm_false_alarms.py)."""
         return (
             self._judged_by(
