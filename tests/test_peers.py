@@ -85,7 +85,9 @@ def test_doorkey_cases_use_the_domains_teachers_preset_and_evaluation():
 def test_the_acceptance_verdicts_of_one_case():
     """Hand-checked: random -500, finals tlac -80, ppo -90, bc-ppo -85, dagger -79 (best), so
     90% is -500 + 0.9 * 421 = -121.1. TL-AC reaches it at 20 s; PPO never in one of two seeds;
-    BC then PPO at 10 s (sooner); DAgger at 12 s (TL-AC within 2x: 20 <= 24)."""
+    BC then PPO at 10 s (sooner); DAgger at 12 s (TL-AC within 2x: 20 <= 24). Issue 63's: BC
+    then PPO is first, TL-AC at 2x its seconds (over 1.2x); with TL-AC at 11.5 s, 1.15x (within);
+    at 9 s, TL-AC first."""
 
     def run(final: float, seconds: float | None) -> dict:
         early = [[10000, -400.0, 1.0]]
@@ -104,6 +106,14 @@ def test_the_acceptance_verdicts_of_one_case():
     assert cells[2].startswith("yes (20 s against 40 s, 1 never)")
     assert cells[3].startswith("no (20 s against 10 s)")
     assert cells[4].startswith("yes (20 s against 12 s)")
+    assert cells[5] == "no (bc-ppo first, 10 s; TL-AC 20 s, 2.00x)"
+    for seconds, verdict in (
+        (11.5, "yes (bc-ppo first, 10 s; TL-AC 12 s, 1.15x)"),
+        (9.0, "yes (TL-AC first)"),
+    ):
+        runs["tlac"] = [run(-80.0, seconds), run(-80.0, seconds)]
+        row = peers.acceptance_row("X", runs, random_policy=-500.0)
+        assert [c.strip() for c in row.strip("|").split("|")][5] == verdict
     assert peers.time_to_ninety(runs["ppo"], -121.1) == (1, 40.0)
 
 
