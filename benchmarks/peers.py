@@ -637,8 +637,8 @@ def acceptance_row(case: str, runs: dict[str, list[dict]], random_policy: float)
     cells = [f"yes ({finals['tlac']:.{d}f})" if not below else "no: " + ", ".join(below)]
     ours = time_to_ninety(runs["tlac"], threshold)
 
-    def shown(key: tuple[int, float]) -> str:
-        seconds = "never" if not np.isfinite(key[1]) else f"{key[1]:.0f} s"
+    def shown(key: tuple[int, float], decimals: int = 0) -> str:
+        seconds = "never" if not np.isfinite(key[1]) else f"{key[1]:.{decimals}f} s"
         return seconds + (f", {key[0]} never" if key[0] and np.isfinite(key[1]) else "")
 
     def within(theirs: tuple[int, float], factor: float) -> bool:
@@ -657,13 +657,14 @@ def acceptance_row(case: str, runs: dict[str, list[dict]], random_policy: float)
         )
     times = {lr: time_to_ninety(rs, threshold) for lr, rs in runs.items()}
     first = min(times, key=lambda lr: (times[lr][0], times[lr][1], lr != "tlac"))
-    ok = first == "tlac" or within(times[first], FIRST_FACTOR)
-    ratio = ours[1] / times[first][1] if np.isfinite(ours[1]) and times[first][1] > 0 else None
+    reached = bool(np.isfinite(ours[1]))  # (no learner reaching it makes nobody first)
+    ok = reached and (first == "tlac" or within(times[first], FIRST_FACTOR))
+    ratio = ours[1] / times[first][1] if reached and times[first][1] > 0 else None
     detail = (
-        "TL-AC first"
+        ("TL-AC first" if reached else "no learner reaches it")
         if first == "tlac"
-        else f"{first} first, {shown(times[first])}; TL-AC {shown(ours)}"
-        + (f", {ratio:.2f}x" if ratio is not None and ours[0] == times[first][0] else "")
+        else f"{first} first, {shown(times[first], 2)}; TL-AC {shown(ours, 2)}"
+        + (f", {ratio:.3f}x" if ratio is not None and ours[0] == times[first][0] else "")
     )
     cells.append(f"{'yes' if ok else 'no'} ({detail})")
     return f"| {case} | " + " | ".join(cells) + " |"

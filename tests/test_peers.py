@@ -87,7 +87,7 @@ def test_the_acceptance_verdicts_of_one_case():
     90% is -500 + 0.9 * 421 = -121.1. TL-AC reaches it at 20 s; PPO never in one of two seeds;
     BC then PPO at 10 s (sooner); DAgger at 12 s (TL-AC within 2x: 20 <= 24). Issue 63's: BC
     then PPO is first, TL-AC at 2x its seconds (over 1.2x); with TL-AC at 11.5 s, 1.15x (within);
-    at 9 s, TL-AC first."""
+    at 12.5 s, 1.25x (over); at 9 s, TL-AC first."""
 
     def run(final: float, seconds: float | None) -> dict:
         early = [[10000, -400.0, 1.0]]
@@ -106,15 +106,34 @@ def test_the_acceptance_verdicts_of_one_case():
     assert cells[2].startswith("yes (20 s against 40 s, 1 never)")
     assert cells[3].startswith("no (20 s against 10 s)")
     assert cells[4].startswith("yes (20 s against 12 s)")
-    assert cells[5] == "no (bc-ppo first, 10 s; TL-AC 20 s, 2.00x)"
+    assert cells[5] == "no (bc-ppo first, 10.00 s; TL-AC 20.00 s, 2.000x)"
     for seconds, verdict in (
-        (11.5, "yes (bc-ppo first, 10 s; TL-AC 12 s, 1.15x)"),
+        (11.5, "yes (bc-ppo first, 10.00 s; TL-AC 11.50 s, 1.150x)"),
+        (12.5, "no (bc-ppo first, 10.00 s; TL-AC 12.50 s, 1.250x)"),
         (9.0, "yes (TL-AC first)"),
     ):
         runs["tlac"] = [run(-80.0, seconds), run(-80.0, seconds)]
-        row = peers.acceptance_row("X", runs, random_policy=-500.0)
-        assert [c.strip() for c in row.strip("|").split("|")][5] == verdict
+        assert _cells(peers.acceptance_row("X", runs, random_policy=-500.0))[5] == verdict
     assert peers.time_to_ninety(runs["ppo"], -121.1) == (1, 40.0)
+    # a learner sooner on the seeds it reaches, but never on one, is not first: TL-AC at 11.5 s
+    # is within 1.2x of BC then PPO's 10 s, and DAgger's 5 s on one seed of two does not count
+    runs["tlac"] = [run(-80.0, 11.5), run(-80.0, 11.5)]
+    runs["dagger"] = [run(-79.0, 5.0), run(-130.0, None)]
+    assert _cells(peers.acceptance_row("X", runs, random_policy=-500.0))[5].startswith(
+        "yes (bc-ppo first"
+    )
+    # the random policy above every learner's final score: the threshold, 90% of the way from it
+    # to the best final (-300 + 0.9 * -150 = -435), is above every point, so nobody is first
+    flat = {
+        lr: [{"steps": 30000, "curve": [[10000, -500.0, 1.0], [30000, -450.0, 30.0]]}]
+        for lr in runs
+    }
+    row = peers.acceptance_row("X", flat, random_policy=-300.0)
+    assert _cells(row)[5] == "no (no learner reaches it)"
+
+
+def _cells(row: str) -> list[str]:
+    return [c.strip() for c in row.strip("|").split("|")]
 
 
 def test_onehot_peers_read_what_tlacs_networks_read_and_clone_through_it():
