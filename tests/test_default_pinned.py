@@ -49,16 +49,19 @@ def _random(space: gym.Space, seed: int):
 
 
 AMD_EPYC = ("AMD EPYC", "no")  # an AMD EPYC without AVX-512
+AMD_EPYC_AVX512 = ("AMD EPYC", "yes")
 INTEL_XEON = ("Intel(R) Xeon(R) Processor @ 2.80GHz", "yes")
 INTEL_XEON_UNNAMED = ("Intel(R) Xeon(R) Processor", "yes")  # its model name without the clock
 USER_GOLDEN = {
     # (environment, preset): {(CPU model name, AVX-512): digest after 3000 steps (two rollouts)}
     ("CartPole-v1", "auto"): {
         AMD_EPYC: "8d2c771facaa7ae7",
+        AMD_EPYC_AVX512: "8d2c771facaa7ae7",
         INTEL_XEON: "2438120c2aa55871",
         INTEL_XEON_UNNAMED: "2438120c2aa55871",
     },
     ("Pendulum-v1", "auto"): {
+        AMD_EPYC_AVX512: "adb43dacc99c2049",
         INTEL_XEON: "9d50b10388122d61",
         INTEL_XEON_UNNAMED: "9d50b10388122d61",
     },
@@ -75,7 +78,9 @@ raw a Box whose bounds declare every coordinate on a unit scale (Pendulum's); Pe
 bf6a1ad85655d5fe (AMD EPYC) and 4c165428639a11cf (Intel Xeon) before, and its AMD EPYC digest
 is to be added from such a machine. On 2026-12-01 a machine whose model name lacks the clock
 ("Intel(R) Xeon(R) Processor") gave the Intel Xeon digests exactly, computed at 7a6c7a8e; it
-had skipped them."""
+had skipped them. The same day an AMD EPYC with AVX-512, which had skipped both, gave CartPole
+the digest of the AMD EPYC without it and Pendulum adb43dacc99c2049 (computed at 99656cba,
+whose library is effcfe17's)."""
 
 
 def _user_run_digest(env_id: str, preset: str) -> str:
