@@ -105,14 +105,16 @@ class Standardise(torch.nn.Module):
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--env", default="Pendulum-v1", choices=list(teacher_sweep.SWEEP)[:5])
+    envs = [e for e in teacher_sweep.SWEEP if e != teacher_sweep.DOORKEY]
+    parser.add_argument("--env", default="Pendulum-v1", choices=envs)
     env_id = parser.parse_args().env
     torch.set_num_threads(1)
     path = ROOT / "results/teacher-sweep/teachers" / env_id / "q1.pt"
     teacher = teacher_sweep.load_teacher_model(env_id, path)
-    space = gym.make(env_id).action_space
+    env = gym.make(env_id)
+    space = env.action_space
     box = isinstance(space, gym.spaces.Box)
-    standardise = not declares_unit_scale(gym.make(env_id).observation_space)
+    standardise = not declares_unit_scale(env.observation_space)
 
     def label(batch: np.ndarray) -> np.ndarray:
         return teacher.predict(batch, deterministic=True)[0]

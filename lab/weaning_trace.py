@@ -2,8 +2,8 @@
 to 90% of PPO alone's score (results/teacher-sweep/NOTES.md, "The time to 90% on one machine").
 Trains the sweep's case (`teacher_sweep.make_learner`: the default with that teacher alone) and
 prints, every 4,096 steps: the greedy student's return (10 episodes), the mean of the recent
-sampled solo returns, the best teacher's led return, and the weaning (the weight the copy has
-lost: competence of the sampled solo returns against that led return).
+sampled solo returns, and the weaning (the weight the copy has lost: competence of the sampled
+solo returns against the best teacher's led return).
 
     .venv/bin/python lab/weaning_trace.py [SEED] [CASE]
 """

@@ -100,8 +100,7 @@ def test_the_acceptance_verdicts_of_one_case():
         "bc-ppo": [run(-85.0, 10.0), run(-85.0, 10.0)],
         "dagger": [run(-79.0, 12.0), run(-79.0, 12.0)],
     }
-    row = peers.acceptance_row("X", runs, random_policy=-500.0)
-    cells = [c.strip() for c in row.strip("|").split("|")]
+    cells = _cells(peers.acceptance_row("X", runs, random_policy=-500.0))
     assert cells[1] == "no: dagger -79.0"
     assert cells[2].startswith("yes (20 s against 40 s, 1 never)")
     assert cells[3].startswith("no (20 s against 10 s)")
